@@ -1,0 +1,580 @@
+//! 3D Delaunay tetrahedralization by incremental Bowyer–Watson insertion.
+//!
+//! References: Bowyer (1981) and Watson (1981) for cavity insertion; Amenta, Choi & Rote,
+//! "Incremental constructions con BRIO" (SoCG 2003) for the insertion order; Devillers,
+//! Pion & Teillaud, "Walking in a triangulation" (2002) for the remembering stochastic walk;
+//! Devillers & Teillaud (2011) for the symbolic perturbation of cospherical ties, the same
+//! scheme CGAL uses; Marot, Pellerin & Remacle (2019) for the flat-array layout.
+//!
+//! Representation: flat arrays, 4 vertex slots and 4 neighbour slots per tetrahedron.
+//! Neighbour `i` of a tetrahedron is across the face opposite vertex slot `i`, encoded as
+//! `tet * 4 + face_in_neighbour`, so stepping across a face and back costs no search. An
+//! infinite vertex ([`INFINITE`]) closes the hull: each hull face has an infinite
+//! tetrahedron on its outer side, so every tetrahedron has exactly four neighbours.
+//!
+//! Invariants kept after [`Tetrahedralization::build`] (and checked by
+//! [`Tetrahedralization::validate`]):
+//! - every finite tetrahedron is positively oriented (exact [`orient3d`] > 0): no flat ones;
+//! - adjacency is symmetric and neighbours agree on the shared face's three vertices;
+//! - finite tetrahedra are numbered `0..num_tets()`, infinite ones after them;
+//! - every distinct input point is a vertex; exact duplicates map to one representative;
+//! - every interior face is locally Delaunay (exact insphere ≤ 0; ties are resolved by the
+//!   symbolic perturbation, so the result is *a* Delaunay tetrahedralization, and the same
+//!   one for any input order).
+
+mod sort;
+mod validate;
+
+pub use sort::SplitMix64;
+pub use validate::{ValidationError, ValidationReport};
+
+use crate::ids::{TetId, VertexId};
+use crate::predicates::{P3, insphere_sos, orient3d};
+
+/// The vertex slot value of the point at infinity.
+pub const INFINITE: u32 = u32::MAX;
+const DEAD: u32 = u32::MAX - 1;
+
+/// Vertex slots of face `i` (opposite slot `i`), ordered counter-clockwise as seen from
+/// outside the tetrahedron.
+pub const FACE_SLOTS: [[usize; 3]; 4] = [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]];
+
+/// Why a tetrahedralization cannot be built.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum DelaunayError {
+    /// An input coordinate is NaN or infinite.
+    #[error("point {index} has a non-finite coordinate {point:?}; remove or fix it")]
+    NonFinite {
+        /// Input index of the point.
+        index: usize,
+        /// Its coordinates.
+        point: P3,
+    },
+    /// Fewer than four distinct points.
+    #[error("only {distinct} distinct points; a tetrahedralization needs at least 4 that are not coplanar")]
+    TooFewPoints {
+        /// Number of distinct points.
+        distinct: usize,
+    },
+    /// All points lie on one line or one plane.
+    #[error("all {distinct} distinct points are {what}; a 3D tetrahedralization needs 4 points that are not coplanar")]
+    Degenerate {
+        /// Number of distinct points.
+        distinct: usize,
+        /// "collinear" or "coplanar".
+        what: &'static str,
+    },
+    /// More points than 32-bit indices can address.
+    #[error("{0} points exceed the 32-bit index range")]
+    TooMany(usize),
+}
+
+/// Statistics gathered while building, for reports and benchmarks.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct BuildStats {
+    /// Input points.
+    pub input_points: usize,
+    /// Exact duplicates merged before insertion.
+    pub duplicates: usize,
+    /// Tetrahedra visited by point-location walks.
+    pub walk_steps: u64,
+    /// Tetrahedra removed in cavities (total over all insertions).
+    pub cavity_tets: u64,
+}
+
+/// A Delaunay tetrahedralization of a point set, covering its convex hull.
+#[derive(Clone, Debug)]
+pub struct Tetrahedralization {
+    points: Vec<P3>,
+    /// Representative of each input point (itself unless it duplicates an earlier one).
+    representative: Vec<u32>,
+    /// Perturbation rank: position in lexicographic (x, y, z) order.
+    rank: Vec<u32>,
+    tets: Vec<[u32; 4]>,
+    adj: Vec<[u32; 4]>,
+    n_finite: usize,
+    stats: BuildStats,
+}
+
+struct Builder<'a> {
+    pts: &'a [P3],
+    rank: &'a [u32],
+    tets: Vec<[u32; 4]>,
+    adj: Vec<[u32; 4]>,
+    mark: Vec<u32>,
+    epoch: u32,
+    free: Vec<u32>,
+    last: u32,
+    rng: SplitMix64,
+    // Scratch buffers reused across insertions.
+    stack: Vec<u32>,
+    cavity: Vec<u32>,
+    boundary: Vec<(u32, u8)>,
+    links: Vec<(u64, u32)>,
+    staged: Vec<([u32; 4], u32)>,
+    stats: BuildStats,
+}
+
+impl Tetrahedralization {
+    /// Builds the Delaunay tetrahedralization of `points` with a fixed insertion seed.
+    pub fn build(points: &[P3]) -> Result<Self, DelaunayError> {
+        Self::build_with_seed(points, 0x5eed)
+    }
+
+    /// As [`Tetrahedralization::build`], with the seed of the randomized insertion order.
+    /// The result does not depend on the seed (ties are broken symbolically); only the
+    /// running time does.
+    pub fn build_with_seed(points: &[P3], seed: u64) -> Result<Self, DelaunayError> {
+        let n = points.len();
+        if n >= DEAD as usize {
+            return Err(DelaunayError::TooMany(n));
+        }
+        if let Some((index, p)) = points.iter().enumerate().find(|(_, p)| p.iter().any(|c| !c.is_finite())) {
+            return Err(DelaunayError::NonFinite { index, point: *p });
+        }
+        // Lexicographic order gives the perturbation ranks and finds exact duplicates.
+        let mut order: Vec<u32> = (0..n as u32).collect();
+        order.sort_unstable_by(|&a, &b| {
+            let (p, q) = (&points[a as usize], &points[b as usize]);
+            p[0].total_cmp(&q[0])
+                .then(p[1].total_cmp(&q[1]))
+                .then(p[2].total_cmp(&q[2]))
+                .then(a.cmp(&b))
+        });
+        let mut rank = vec![0u32; n];
+        let mut representative: Vec<u32> = (0..n as u32).collect();
+        let mut unique: Vec<u32> = Vec::with_capacity(n);
+        for (r, &i) in order.iter().enumerate() {
+            rank[i as usize] = r as u32;
+            if let Some(&u) = unique.last() {
+                if points[u as usize] == points[i as usize] {
+                    representative[i as usize] = u;
+                    continue;
+                }
+            }
+            unique.push(i);
+        }
+        drop(order);
+        let distinct = unique.len();
+        let stats = BuildStats { input_points: n, duplicates: n - distinct, ..Default::default() };
+        if distinct < 4 {
+            return Err(DelaunayError::TooFewPoints { distinct });
+        }
+        let ins = sort::brio_hilbert(points, unique, seed);
+        let mut b = Builder::new(points, &rank, seed, stats);
+        let start = b.initial(&ins)?;
+        for (k, &p) in ins.iter().enumerate() {
+            if start.contains(&k) {
+                continue;
+            }
+            b.insert(p);
+        }
+        let (tets, adj, n_finite) = b.compact();
+        let stats = std::mem::take(&mut b.stats);
+        drop(b);
+        Ok(Tetrahedralization { points: points.to_vec(), representative, rank, tets, adj, n_finite, stats })
+    }
+
+    /// The input points, indexed by [`VertexId`] (vertex ids are input indices).
+    pub fn points(&self) -> &[P3] {
+        &self.points
+    }
+    /// Position of a vertex.
+    pub fn point(&self, v: VertexId) -> &P3 {
+        &self.points[v.idx()]
+    }
+    /// The vertex that stands for input point `i`: `i` itself, or the earlier exact duplicate.
+    pub fn representative(&self, i: usize) -> VertexId {
+        VertexId(self.representative[i])
+    }
+    /// Number of finite tetrahedra.
+    pub fn num_tets(&self) -> usize {
+        self.n_finite
+    }
+    /// Number of hull faces (= number of infinite tetrahedra).
+    pub fn num_hull_faces(&self) -> usize {
+        self.tets.len() - self.n_finite
+    }
+    /// Number of distinct vertices.
+    pub fn num_vertices(&self) -> usize {
+        self.points.len() - self.stats.duplicates
+    }
+    /// Build statistics.
+    pub fn stats(&self) -> &BuildStats {
+        &self.stats
+    }
+    /// Vertices of a finite tetrahedron, positively oriented.
+    #[inline]
+    pub fn tet(&self, t: TetId) -> [VertexId; 4] {
+        self.tets[t.idx()].map(VertexId)
+    }
+    /// All finite tetrahedra.
+    pub fn tets(&self) -> impl Iterator<Item = (TetId, [VertexId; 4])> + '_ {
+        self.tets[..self.n_finite].iter().enumerate().map(|(i, v)| (TetId(i as u32), v.map(VertexId)))
+    }
+    /// The finite tetrahedron across face `face` (opposite vertex slot `face`) of `t`, and
+    /// the index of the shared face in it; `None` on the convex hull.
+    #[inline]
+    pub fn neighbor(&self, t: TetId, face: usize) -> Option<(TetId, usize)> {
+        let a = self.adj[t.idx()][face];
+        let n = (a >> 2) as usize;
+        (n < self.n_finite).then_some((TetId(n as u32), (a & 3) as usize))
+    }
+    /// The three vertices of face `face` of `t`, counter-clockwise seen from outside `t`.
+    #[inline]
+    pub fn face(&self, t: TetId, face: usize) -> [VertexId; 3] {
+        let v = self.tets[t.idx()];
+        FACE_SLOTS[face].map(|s| VertexId(v[s]))
+    }
+    /// Hull faces: (finite tetrahedron, face index) pairs whose outside is the unbounded region.
+    pub fn hull_faces(&self) -> impl Iterator<Item = (TetId, usize)> + '_ {
+        self.tets[self.n_finite..].iter().enumerate().map(move |(k, v)| {
+            let t = self.n_finite + k;
+            let s = v.iter().position(|&x| x == INFINITE).expect("infinite tet");
+            let a = self.adj[t][s];
+            (TetId(a >> 2), (a & 3) as usize)
+        })
+    }
+    /// Signed volume of a finite tetrahedron (positive; computed in floating point).
+    pub fn volume(&self, t: TetId) -> f64 {
+        let [a, b, c, d] = self.tets[t.idx()].map(|v| self.points[v as usize]);
+        let u = sub(&b, &a);
+        let v = sub(&c, &a);
+        let w = sub(&d, &a);
+        (u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) + u[2] * (v[0] * w[1] - v[1] * w[0])) / 6.0
+    }
+    /// Bytes held by this structure's arrays (excluding the allocator's overhead).
+    pub fn heap_bytes(&self) -> usize {
+        self.points.capacity() * 24 + self.representative.capacity() * 4 + self.rank.capacity() * 4 + self.tets.capacity() * 16 + self.adj.capacity() * 16
+    }
+}
+
+#[inline]
+fn sub(a: &P3, b: &P3) -> P3 {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+impl<'a> Builder<'a> {
+    fn new(pts: &'a [P3], rank: &'a [u32], seed: u64, stats: BuildStats) -> Self {
+        let cap = pts.len() * 7;
+        Builder {
+            pts,
+            rank,
+            tets: Vec::with_capacity(cap),
+            adj: Vec::with_capacity(cap),
+            mark: Vec::with_capacity(cap),
+            epoch: 0,
+            free: Vec::new(),
+            last: 0,
+            rng: SplitMix64(seed ^ 0xA5A5_5A5A),
+            stack: Vec::new(),
+            cavity: Vec::new(),
+            boundary: Vec::new(),
+            links: Vec::new(),
+            staged: Vec::new(),
+            stats,
+        }
+    }
+
+    #[inline]
+    fn p(&self, v: u32) -> &'a P3 {
+        &self.pts[v as usize]
+    }
+
+    /// Finds four affinely independent points among the first insertion candidates, builds
+    /// the first tetrahedron and its four infinite neighbours. Returns the positions (in
+    /// `ins`) of the points used.
+    fn initial(&mut self, ins: &[u32]) -> Result<[usize; 4], DelaunayError> {
+        let distinct = ins.len();
+        let i0 = 0;
+        let i1 = 1;
+        let (a, b) = (self.p(ins[i0]), self.p(ins[i1]));
+        let i2 = (2..ins.len())
+            .find(|&k| !crate::predicates::collinear(a, b, self.p(ins[k])))
+            .ok_or(DelaunayError::Degenerate { distinct, what: "collinear" })?;
+        let c = self.p(ins[i2]);
+        let (i3, o) = (2..ins.len())
+            .filter(|&k| k != i2)
+            .map(|k| (k, orient3d(a, b, c, self.p(ins[k]))))
+            .find(|&(_, o)| o != 0)
+            .ok_or(DelaunayError::Degenerate { distinct, what: "coplanar" })?;
+        let mut v = [ins[i0], ins[i1], ins[i2], ins[i3]];
+        if o < 0 {
+            v.swap(0, 1);
+        }
+        // Finite tetrahedron 0 and one infinite tetrahedron per face.
+        self.tets.push(v);
+        for f in FACE_SLOTS {
+            self.tets.push([v[f[0]], v[f[1]], v[f[2]], INFINITE]);
+        }
+        self.adj = vec![[u32::MAX; 4]; 5];
+        self.mark = vec![0; 5];
+        // Pair faces by their vertex sets (only five tetrahedra: quadratic is fine).
+        for t in 0..5 {
+            for i in 0..4 {
+                if self.adj[t][i] != u32::MAX {
+                    continue;
+                }
+                let key = face_key(&self.tets[t], i);
+                'search: for u in 0..5 {
+                    if u == t {
+                        continue;
+                    }
+                    for j in 0..4 {
+                        if face_key(&self.tets[u], j) == key {
+                            self.adj[t][i] = (u * 4 + j) as u32;
+                            self.adj[u][j] = (t * 4 + i) as u32;
+                            break 'search;
+                        }
+                    }
+                }
+            }
+        }
+        self.last = 0;
+        Ok([i0, i1, i2, i3])
+    }
+
+    /// Orientation of tetrahedron `t` with vertex slot `s` replaced by point `q`.
+    /// For infinite tetrahedra the infinite vertex must not be at slot `s`... unless it is
+    /// being replaced, in which case this is the plain orientation of the finite face and q.
+    #[inline]
+    fn orient_with(&self, v: &[u32; 4], s: usize, q: &P3) -> i32 {
+        let g = |k: usize| if k == s { q } else { self.p(v[k]) };
+        orient3d(g(0), g(1), g(2), g(3))
+    }
+
+    #[inline]
+    fn insphere_finite(&self, v: &[u32; 4], p: u32) -> i32 {
+        let r = self.rank;
+        insphere_sos(
+            [self.p(v[0]), self.p(v[1]), self.p(v[2]), self.p(v[3]), self.p(p)],
+            [r[v[0] as usize], r[v[1] as usize], r[v[2] as usize], r[v[3] as usize], r[p as usize]],
+        )
+    }
+
+    /// Whether point `p` conflicts with tetrahedron `t` (lies inside its circumsphere, or
+    /// for an infinite tetrahedron, strictly outside its hull face, or on the face's plane
+    /// inside its circumcircle — decided as for the finite neighbour, so both agree).
+    fn in_conflict(&self, t: u32, p: u32) -> bool {
+        let v = &self.tets[t as usize];
+        if let Some(k) = v.iter().position(|&x| x == INFINITE) {
+            let o = self.orient_with(v, k, self.p(p));
+            if o != 0 {
+                return o > 0;
+            }
+            let n = self.adj[t as usize][k] >> 2;
+            self.insphere_finite(&self.tets[n as usize], p) > 0
+        } else {
+            self.insphere_finite(v, p) > 0
+        }
+    }
+
+    /// Remembering stochastic walk from the last created tetrahedron to one whose closure
+    /// contains `p`, or to an infinite tetrahedron whose hull face `p` is strictly beyond.
+    fn locate(&mut self, p: u32) -> u32 {
+        let q = self.p(p);
+        let mut t = self.last;
+        let mut prev = u32::MAX;
+        loop {
+            let v = self.tets[t as usize];
+            if v.contains(&INFINITE) {
+                return t;
+            }
+            let r = (self.rng.next_u64() & 3) as usize;
+            let mut next = None;
+            for j in 0..4 {
+                let i = (r + j) & 3;
+                let n = self.adj[t as usize][i] >> 2;
+                if n == prev {
+                    continue;
+                }
+                if self.orient_with(&v, i, q) < 0 {
+                    next = Some(n);
+                    break;
+                }
+            }
+            self.stats.walk_steps += 1;
+            match next {
+                Some(n) => {
+                    prev = t;
+                    t = n;
+                }
+                None => return t,
+            }
+        }
+    }
+
+    fn new_tet(&mut self, v: [u32; 4]) -> u32 {
+        if let Some(t) = self.free.pop() {
+            self.tets[t as usize] = v;
+            t
+        } else {
+            self.tets.push(v);
+            self.adj.push([u32::MAX; 4]);
+            self.mark.push(0);
+            (self.tets.len() - 1) as u32
+        }
+    }
+
+    /// `p` lies on the boundary of `t` but is not in conflict with it: the conflicting
+    /// tetrahedron is among those sharing the face, edge or vertex `p` lies on. Searches
+    /// across the faces of `t` whose plane contains `p`.
+    #[cold]
+    fn seed_on_boundary(&mut self, t0: u32, p: u32) -> u32 {
+        let q = self.p(p);
+        let no = 2 * self.epoch + 1;
+        self.stack.clear();
+        self.stack.push(t0);
+        self.mark[t0 as usize] = no;
+        while let Some(t) = self.stack.pop() {
+            let v = self.tets[t as usize];
+            if v.contains(&INFINITE) {
+                continue;
+            }
+            for i in 0..4 {
+                let n = self.adj[t as usize][i] >> 2;
+                if self.mark[n as usize] == no || self.orient_with(&v, i, q) != 0 {
+                    continue;
+                }
+                if self.in_conflict(n, p) {
+                    return n;
+                }
+                self.mark[n as usize] = no;
+                self.stack.push(n);
+            }
+        }
+        unreachable!("a point is in conflict with some tetrahedron whose closure contains it")
+    }
+
+    fn insert(&mut self, p: u32) {
+        let mut seed = self.locate(p);
+        // Marks: 2*epoch = in cavity, 2*epoch+1 = tested and not in conflict.
+        self.epoch += 1;
+        if !self.in_conflict(seed, p) {
+            seed = self.seed_on_boundary(seed, p);
+            self.epoch += 1;
+        }
+        let (yes, no) = (2 * self.epoch, 2 * self.epoch + 1);
+        // Grow the cavity by depth-first search over conflicting tetrahedra.
+        self.cavity.clear();
+        self.boundary.clear();
+        self.stack.clear();
+        self.mark[seed as usize] = yes;
+        self.stack.push(seed);
+        while let Some(t) = self.stack.pop() {
+            self.cavity.push(t);
+            for i in 0..4 {
+                let n = self.adj[t as usize][i] >> 2;
+                let m = self.mark[n as usize];
+                if m == yes {
+                    continue;
+                }
+                if m != no && self.in_conflict(n, p) {
+                    self.mark[n as usize] = yes;
+                    self.stack.push(n);
+                } else {
+                    self.mark[n as usize] = no;
+                    self.boundary.push((t, i as u8));
+                }
+            }
+        }
+        self.stats.cavity_tets += self.cavity.len() as u64;
+        // Star the cavity boundary from p. Boundary faces are read before any cavity slot
+        // is reused.
+        let nb = self.boundary.len();
+        self.links.clear();
+        let mut created_finite = u32::MAX;
+        let mut staged = std::mem::take(&mut self.staged);
+        staged.clear();
+        for &(t, i) in &self.boundary {
+            let mut v = self.tets[t as usize];
+            v[i as usize] = p;
+            staged.push((v, self.adj[t as usize][i as usize]));
+        }
+        for &t in &self.cavity {
+            self.tets[t as usize] = [DEAD; 4];
+            self.free.push(t);
+        }
+        for k in 0..nb {
+            let (v, o) = staged[k];
+            let i = self.boundary[k].1 as usize;
+            let u = self.new_tet(v);
+            self.adj[u as usize][i] = o;
+            self.adj[(o >> 2) as usize][(o & 3) as usize] = u * 4 + i as u32;
+            self.mark[u as usize] = 0;
+            if created_finite == u32::MAX && !v.contains(&INFINITE) {
+                created_finite = u;
+            }
+            for j in 0..4 {
+                if j == i {
+                    continue;
+                }
+                // Face j contains p; it is shared with the new tetrahedron across the edge
+                // formed by the two remaining vertices.
+                let mut e = [0u32; 2];
+                let mut m = 0;
+                for s in 0..4 {
+                    if s != i && s != j {
+                        e[m] = v[s];
+                        m += 1;
+                    }
+                }
+                let key = ((e[0].min(e[1]) as u64) << 32) | e[0].max(e[1]) as u64;
+                self.links.push((key, u * 4 + j as u32));
+            }
+        }
+        self.links.sort_unstable_by_key(|l| l.0);
+        for w in self.links.chunks_exact(2) {
+            debug_assert_eq!(w[0].0, w[1].0);
+            let (a, b) = (w[0].1, w[1].1);
+            self.adj[(a >> 2) as usize][(a & 3) as usize] = b;
+            self.adj[(b >> 2) as usize][(b & 3) as usize] = a;
+        }
+        self.staged = staged;
+        self.last = created_finite;
+    }
+
+    /// Renumbers so finite tetrahedra come first and drops dead slots.
+    fn compact(&mut self) -> (Vec<[u32; 4]>, Vec<[u32; 4]>, usize) {
+        let n = self.tets.len();
+        let mut map = vec![u32::MAX; n];
+        let mut next = 0u32;
+        for (t, v) in self.tets.iter().enumerate() {
+            if v[0] != DEAD && !v.contains(&INFINITE) {
+                map[t] = next;
+                next += 1;
+            }
+        }
+        let n_finite = next as usize;
+        for (t, v) in self.tets.iter().enumerate() {
+            if v[0] != DEAD && v.contains(&INFINITE) {
+                map[t] = next;
+                next += 1;
+            }
+        }
+        let total = next as usize;
+        let mut tets = vec![[0u32; 4]; total];
+        let mut adj = vec![[0u32; 4]; total];
+        for t in 0..n {
+            let m = map[t];
+            if m == u32::MAX {
+                continue;
+            }
+            tets[m as usize] = self.tets[t];
+            adj[m as usize] = self.adj[t].map(|a| map[(a >> 2) as usize] * 4 + (a & 3));
+        }
+        self.tets = Vec::new();
+        self.adj = Vec::new();
+        self.mark = Vec::new();
+        (tets, adj, n_finite)
+    }
+}
+
+fn face_key(v: &[u32; 4], i: usize) -> [u32; 3] {
+    let mut k = FACE_SLOTS[i].map(|s| v[s]);
+    k.sort_unstable();
+    k
+}
+
+#[cfg(test)]
+mod tests;

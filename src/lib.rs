@@ -1,0 +1,15 @@
+//! portalfind: find cells and portals in 3D polygon models.
+//!
+//! See `ARCHITECTURE.md` for the layers and their invariants. In short:
+//! [`predicates`] (exact geometry) ← [`delaunay`] (tetrahedralization) and [`model`] (input)
+//! ← later stages (cell complex, decimation).
+
+pub mod bench;
+pub mod delaunay;
+pub mod ids;
+pub mod model;
+pub mod predicates;
+pub mod tolerances;
+
+pub use ids::{CellId, PolygonId, PortalId, TetId, VertexId};
+pub use tolerances::Tolerances;

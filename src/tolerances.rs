@@ -1,0 +1,50 @@
+//! The one place where epsilons live.
+//!
+//! Exact predicates ([`crate::predicates`]) need no tolerance. Where a constructed
+//! quantity (a clipped polygon's vertex, an area after subtraction) must be compared
+//! against zero, the threshold is taken from here, and every threshold is *relative to the
+//! model's size* (the length of its bounding-box diagonal), so scaling a model by any factor
+//! gives the same decisions.
+
+use serde::{Deserialize, Serialize};
+
+/// Tolerances, all relative to `scale` (the model's bounding-box diagonal).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Tolerances {
+    /// Length of the model's bounding-box diagonal; all other fields multiply it.
+    pub scale: f64,
+    /// Vertices closer than `weld * scale` are merged on input.
+    pub weld: f64,
+    /// Polygons with area below `(area * scale)^2` are dropped as degenerate; portal slivers
+    /// below this area are discarded after occluder subtraction.
+    pub area: f64,
+    /// Points closer than `plane * scale` to a constructed plane count as on it.
+    pub plane: f64,
+}
+
+impl Tolerances {
+    /// Default relative tolerances for a model whose bounding-box diagonal is `scale`.
+    pub fn for_scale(scale: f64) -> Self {
+        let scale = if scale.is_finite() && scale > 0.0 { scale } else { 1.0 };
+        Tolerances { scale, weld: 1e-7, area: 1e-5, plane: 1e-9 }
+    }
+    /// Absolute weld distance.
+    pub fn weld_abs(&self) -> f64 {
+        self.weld * self.scale
+    }
+    /// Absolute area threshold.
+    pub fn area_abs(&self) -> f64 {
+        let l = self.area * self.scale;
+        l * l
+    }
+    /// Absolute plane distance.
+    pub fn plane_abs(&self) -> f64 {
+        self.plane * self.scale
+    }
+}
+
+impl Default for Tolerances {
+    fn default() -> Self {
+        Self::for_scale(1.0)
+    }
+}
