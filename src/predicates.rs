@@ -35,15 +35,19 @@ fn c(p: &P3) -> Coord3D<f64> {
 /// triangle `abc`. Returns -1, 0 or +1.
 #[inline]
 pub fn orient3d(a: &P3, b: &P3, c_: &P3, d: &P3) -> i32 {
-    let v = robust::orient3d(c(a), c(b), c(c_), c(d));
-    // Shewchuk's orient3d is positive when d is *below*; negate.
-    if v < 0.0 {
-        1
-    } else if v > 0.0 {
-        -1
-    } else {
-        0
+    // Shewchuk's orient3d is positive when d is *below*; we negate.
+    if let Some(s) = orient3d_filter(a, b, c_, d) {
+        return -s;
     }
+    orient3d_exact(a, b, c_, d)
+}
+
+#[cold]
+fn orient3d_exact(a: &P3, b: &P3, c_: &P3, d: &P3) -> i32 {
+    if let Some(s) = lattice::orient3d(a, b, c_, d) {
+        return s;
+    }
+    -sign(robust::orient3d(c(a), c(b), c(c_), c(d)))
 }
 
 /// Exact sign of the insphere determinant: +1 when `e` is strictly inside the sphere
@@ -52,13 +56,160 @@ pub fn orient3d(a: &P3, b: &P3, c_: &P3, d: &P3) -> i32 {
 pub fn insphere(a: &P3, b: &P3, c_: &P3, d: &P3, e: &P3) -> i32 {
     // Shewchuk requires his positive orientation, which is our negative: swapping a and b
     // makes our positive tetrahedron his positive one.
-    let v = robust::insphere(c(b), c(a), c(c_), c(d), c(e));
+    if let Some(s) = insphere_filter(b, a, c_, d, e) {
+        return s;
+    }
+    insphere_exact(a, b, c_, d, e)
+}
+
+#[cold]
+fn insphere_exact(a: &P3, b: &P3, c_: &P3, d: &P3, e: &P3) -> i32 {
+    if let Some(s) = lattice::insphere(b, a, c_, d, e) {
+        return s;
+    }
+    sign(robust::insphere(c(b), c(a), c(c_), c(d), c(e)))
+}
+
+#[inline(always)]
+fn sign(v: f64) -> i32 {
     if v > 0.0 {
         1
     } else if v < 0.0 {
         -1
     } else {
         0
+    }
+}
+
+const EPS: f64 = f64::EPSILON / 2.0; // 2^-53, Shewchuk's epsilon
+const O3D_BOUND: f64 = (7.0 + 56.0 * EPS) * EPS;
+const ISP_BOUND: f64 = (16.0 + 224.0 * EPS) * EPS;
+
+/// Shewchuk's orient3d floating-point stage with his a-priori error bound: the sign when
+/// it is certain, `None` when the exact stage must decide. (Sign in Shewchuk's convention.)
+#[inline(always)]
+fn orient3d_filter(a: &P3, b: &P3, c_: &P3, d: &P3) -> Option<i32> {
+    let (adx, ady, adz) = (a[0] - d[0], a[1] - d[1], a[2] - d[2]);
+    let (bdx, bdy, bdz) = (b[0] - d[0], b[1] - d[1], b[2] - d[2]);
+    let (cdx, cdy, cdz) = (c_[0] - d[0], c_[1] - d[1], c_[2] - d[2]);
+    let (bdxcdy, cdxbdy) = (bdx * cdy, cdx * bdy);
+    let (cdxady, adxcdy) = (cdx * ady, adx * cdy);
+    let (adxbdy, bdxady) = (adx * bdy, bdx * ady);
+    let det = adz * (bdxcdy - cdxbdy) + bdz * (cdxady - adxcdy) + cdz * (adxbdy - bdxady);
+    let perm = (bdxcdy.abs() + cdxbdy.abs()) * adz.abs()
+        + (cdxady.abs() + adxcdy.abs()) * bdz.abs()
+        + (adxbdy.abs() + bdxady.abs()) * cdz.abs();
+    let bound = O3D_BOUND * perm;
+    if det > bound {
+        Some(1)
+    } else if -det > bound {
+        Some(-1)
+    } else {
+        None
+    }
+}
+
+/// Shewchuk's insphere floating-point stage with his a-priori error bound (his convention).
+#[inline(always)]
+fn insphere_filter(a: &P3, b: &P3, c_: &P3, d: &P3, e: &P3) -> Option<i32> {
+    let (aex, aey, aez) = (a[0] - e[0], a[1] - e[1], a[2] - e[2]);
+    let (bex, bey, bez) = (b[0] - e[0], b[1] - e[1], b[2] - e[2]);
+    let (cex, cey, cez) = (c_[0] - e[0], c_[1] - e[1], c_[2] - e[2]);
+    let (dex, dey, dez) = (d[0] - e[0], d[1] - e[1], d[2] - e[2]);
+    let (aexbey, bexaey) = (aex * bey, bex * aey);
+    let ab = aexbey - bexaey;
+    let (bexcey, cexbey) = (bex * cey, cex * bey);
+    let bc = bexcey - cexbey;
+    let (cexdey, dexcey) = (cex * dey, dex * cey);
+    let cd = cexdey - dexcey;
+    let (dexaey, aexdey) = (dex * aey, aex * dey);
+    let da = dexaey - aexdey;
+    let (aexcey, cexaey) = (aex * cey, cex * aey);
+    let ac = aexcey - cexaey;
+    let (bexdey, dexbey) = (bex * dey, dex * bey);
+    let bd = bexdey - dexbey;
+    let abc = aez * bc - bez * ac + cez * ab;
+    let bcd = bez * cd - cez * bd + dez * bc;
+    let cda = cez * da + dez * ac + aez * cd;
+    let dab = dez * ab + aez * bd + bez * da;
+    let alift = aex * aex + aey * aey + aez * aez;
+    let blift = bex * bex + bey * bey + bez * bez;
+    let clift = cex * cex + cey * cey + cez * cez;
+    let dlift = dex * dex + dey * dey + dez * dez;
+    let det = (dlift * abc - clift * dab) + (blift * cda - alift * bcd);
+    let (az, bz, cz, dz) = (aez.abs(), bez.abs(), cez.abs(), dez.abs());
+    let perm = ((cexdey.abs() + dexcey.abs()) * bz + (dexbey.abs() + bexdey.abs()) * cz + (bexcey.abs() + cexbey.abs()) * dz)
+        * alift
+        + ((dexaey.abs() + aexdey.abs()) * cz + (aexcey.abs() + cexaey.abs()) * dz + (cexdey.abs() + dexcey.abs()) * az) * blift
+        + ((aexbey.abs() + bexaey.abs()) * dz + (bexdey.abs() + dexbey.abs()) * az + (dexaey.abs() + aexdey.abs()) * bz) * clift
+        + ((bexcey.abs() + cexbey.abs()) * az + (cexaey.abs() + aexcey.abs()) * bz + (aexbey.abs() + bexaey.abs()) * cz) * dlift;
+    let bound = ISP_BOUND * perm;
+    if det > bound {
+        Some(1)
+    } else if -det > bound {
+        Some(-1)
+    } else {
+        None
+    }
+}
+
+/// Exact integer arithmetic for inputs on a small binary lattice — the architectural case
+/// (integer or half-unit coordinates, regular grids) where exact ties are common and the
+/// adaptive expansion arithmetic would otherwise run to its last stage on every tie.
+///
+/// Applies when every coordinate times 2^8 is an integer of magnitude at most 2^22 (that is
+/// |x| ≤ 16384 in steps of 1/256). Differences then fit in 24 bits, and the insphere
+/// determinant (degree 5) in well under 127 bits, so `i128` evaluation is exact. Scaling by
+/// a power of two is exact, so the answer is the sign for the coordinates as given.
+mod lattice {
+    use super::P3;
+
+    const SCALE: f64 = 256.0;
+    const LIMIT: f64 = (1u64 << 22) as f64;
+
+    #[inline]
+    fn to_int(p: &P3) -> Option<[i64; 3]> {
+        let mut r = [0i64; 3];
+        for k in 0..3 {
+            let s = p[k] * SCALE;
+            if s.abs() > LIMIT || s.fract() != 0.0 {
+                return None;
+            }
+            r[k] = s as i64;
+        }
+        Some(r)
+    }
+
+    fn sub(a: [i64; 3], b: [i64; 3]) -> [i128; 3] {
+        [(a[0] - b[0]) as i128, (a[1] - b[1]) as i128, (a[2] - b[2]) as i128]
+    }
+
+    /// Our orient3d convention: sign of det[b-a, c-a, d-a].
+    pub fn orient3d(a: &P3, b: &P3, c: &P3, d: &P3) -> Option<i32> {
+        let (a, b, c, d) = (to_int(a)?, to_int(b)?, to_int(c)?, to_int(d)?);
+        let (u, v, w) = (sub(b, a), sub(c, a), sub(d, a));
+        let det = u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) + u[2] * (v[0] * w[1] - v[1] * w[0]);
+        Some(det.signum() as i32)
+    }
+
+    /// Shewchuk's insphere convention (positive inside for his positive orientation).
+    pub fn insphere(a: &P3, b: &P3, c: &P3, d: &P3, e: &P3) -> Option<i32> {
+        let e = to_int(e)?;
+        let (a, b, c) = (sub(to_int(a)?, e), sub(to_int(b)?, e), sub(to_int(c)?, e));
+        let d = sub(to_int(d)?, e);
+        let ab = a[0] * b[1] - b[0] * a[1];
+        let bc = b[0] * c[1] - c[0] * b[1];
+        let cd = c[0] * d[1] - d[0] * c[1];
+        let da = d[0] * a[1] - a[0] * d[1];
+        let ac = a[0] * c[1] - c[0] * a[1];
+        let bd = b[0] * d[1] - d[0] * b[1];
+        let abc = a[2] * bc - b[2] * ac + c[2] * ab;
+        let bcd = b[2] * cd - c[2] * bd + d[2] * bc;
+        let cda = c[2] * da + d[2] * ac + a[2] * cd;
+        let dab = d[2] * ab + a[2] * bd + b[2] * da;
+        let lift = |p: [i128; 3]| p[0] * p[0] + p[1] * p[1] + p[2] * p[2];
+        let det = (lift(d) * abc - lift(c) * dab) + (lift(b) * cda - lift(a) * bcd);
+        Some(det.signum() as i32)
     }
 }
 
@@ -186,6 +337,29 @@ mod tests {
         let (a, b) = if orient3d(a, b, cc, d) > 0 { (a, b) } else { (b, a) };
         let s2 = insphere_sos([a, b, cc, d, &p[0]], [3, 5, 6, 7, 0]);
         assert_ne!(s2, 0);
+    }
+
+    #[test]
+    fn filters_and_lattice_agree_with_robust() {
+        // Random small-lattice points (many ties) and random reals: every path must give
+        // robust's exact sign.
+        let mut r = crate::delaunay::SplitMix64(9);
+        for round in 0..20_000 {
+            let pt = |r: &mut crate::delaunay::SplitMix64| -> P3 {
+                if round % 2 == 0 {
+                    [0; 3].map(|_| (r.below(5) as f64) * 0.5)
+                } else {
+                    [0; 3].map(|_| (r.next_u64() >> 11) as f64 / (1u64 << 53) as f64 * 1e3 + 1e6)
+                }
+            };
+            let (a, b, cc, d, e) = (pt(&mut r), pt(&mut r), pt(&mut r), pt(&mut r), pt(&mut r));
+            let want_o = -sign(robust::orient3d(c(&a), c(&b), c(&cc), c(&d)));
+            assert_eq!(orient3d(&a, &b, &cc, &d), want_o);
+            assert_eq!(orient3d_exact(&a, &b, &cc, &d), want_o);
+            let want_s = sign(robust::insphere(c(&b), c(&a), c(&cc), c(&d), c(&e)));
+            assert_eq!(insphere(&a, &b, &cc, &d, &e), want_s);
+            assert_eq!(insphere_exact(&a, &b, &cc, &d, &e), want_s);
+        }
     }
 
     #[test]
