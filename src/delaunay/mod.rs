@@ -29,7 +29,7 @@ pub use sort::SplitMix64;
 pub use validate::{ValidationError, ValidationReport};
 
 use crate::ids::{TetId, VertexId};
-use crate::predicates::{P3, insphere_sos, orient3d};
+use crate::predicates::{P3, insphere, insphere_sos, orient3d};
 
 /// The vertex slot value of the point at infinity.
 pub const INFINITE: u32 = u32::MAX;
@@ -110,7 +110,10 @@ struct Builder<'a> {
     stack: Vec<u32>,
     cavity: Vec<u32>,
     boundary: Vec<(u32, u8)>,
-    links: Vec<(u64, u32)>,
+    links: Vec<(u32, u32, u32)>,
+    /// Per-vertex local number during one insertion (`local_epoch` marks validity).
+    local: Vec<(u32, u32)>,
+    table: Vec<u32>,
     staged: Vec<([u32; 4], u32)>,
     stats: BuildStats,
 }
@@ -271,6 +274,8 @@ impl<'a> Builder<'a> {
             cavity: Vec::new(),
             boundary: Vec::new(),
             links: Vec::new(),
+            local: vec![(0, 0); pts.len() + 1],
+            table: Vec::new(),
             staged: Vec::new(),
             stats,
         }
@@ -345,11 +350,13 @@ impl<'a> Builder<'a> {
 
     #[inline]
     fn insphere_finite(&self, v: &[u32; 4], p: u32) -> i32 {
+        let pts = [self.p(v[0]), self.p(v[1]), self.p(v[2]), self.p(v[3]), self.p(p)];
+        let s = insphere(pts[0], pts[1], pts[2], pts[3], pts[4]);
+        if s != 0 {
+            return s;
+        }
         let r = self.rank;
-        insphere_sos(
-            [self.p(v[0]), self.p(v[1]), self.p(v[2]), self.p(v[3]), self.p(p)],
-            [r[v[0] as usize], r[v[1] as usize], r[v[2] as usize], r[v[3] as usize], r[p as usize]],
-        )
+        insphere_sos(pts, [v[0], v[1], v[2], v[3], p].map(|x| r[x as usize]))
     }
 
     /// Whether point `p` conflicts with tetrahedron `t` (lies inside its circumsphere, or
@@ -519,19 +526,46 @@ impl<'a> Builder<'a> {
                         m += 1;
                     }
                 }
-                let key = ((e[0].min(e[1]) as u64) << 32) | e[0].max(e[1]) as u64;
-                self.links.push((key, u * 4 + j as u32));
+                self.links.push((e[0], e[1], u * 4 + j as u32));
             }
         }
-        self.links.sort_unstable_by_key(|l| l.0);
-        for w in self.links.chunks_exact(2) {
-            debug_assert_eq!(w[0].0, w[1].0);
-            let (a, b) = (w[0].1, w[1].1);
-            self.adj[(a >> 2) as usize][(a & 3) as usize] = b;
-            self.adj[(b >> 2) as usize][(b & 3) as usize] = a;
-        }
+        self.link_faces();
         self.staged = staged;
         self.last = created_finite;
+    }
+
+    /// Connects the new tetrahedra to each other: each face through the new point is shared
+    /// by exactly two of them, identified by its edge opposite the new point. Cavity vertices
+    /// get small local numbers so the pairing is a direct table lookup (no hashing, no sort).
+    fn link_faces(&mut self) {
+        let stamp = self.epoch;
+        let mut k = 0u32;
+        for l in &self.links {
+            for v in [l.0, l.1] {
+                let e = &mut self.local[(v as usize).min(self.pts.len())];
+                if e.0 != stamp {
+                    *e = (stamp, k);
+                    k += 1;
+                }
+            }
+        }
+        let k = k as usize;
+        if self.table.len() < k * k {
+            self.table.resize(k * k, u32::MAX);
+        }
+        for &(a, b, f) in &self.links {
+            let n = self.pts.len();
+            let (la, lb) = (self.local[(a as usize).min(n)].1 as usize, self.local[(b as usize).min(n)].1 as usize);
+            let slot = la.min(lb) * k + la.max(lb);
+            let g = self.table[slot];
+            if g == u32::MAX {
+                self.table[slot] = f;
+            } else {
+                self.table[slot] = u32::MAX;
+                self.adj[(f >> 2) as usize][(f & 3) as usize] = g;
+                self.adj[(g >> 2) as usize][(g & 3) as usize] = f;
+            }
+        }
     }
 
     /// Renumbers so finite tetrahedra come first and drops dead slots.
