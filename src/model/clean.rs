@@ -1,0 +1,725 @@
+//! The cleaning pipeline shared by all readers (see the module docs of [`crate::model`]).
+
+use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
+
+use super::error::ModelError;
+use super::report::CleaningReport;
+use super::triangulate::{Shape, classify};
+use super::{Model, Polygon, SourceRef, bbox_of, newell};
+use crate::ids::VertexId;
+use crate::predicates::{collinear, orient3d};
+use crate::tolerances::Tolerances;
+
+/// A polygon as read, before cleaning.
+#[derive(Clone, Debug)]
+pub(crate) struct RawPolygon {
+    pub verts: Vec<u32>,
+    pub source: SourceRef,
+    pub material: Option<String>,
+}
+
+/// A polygon soup as read.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Soup {
+    pub vertices: Vec<[f64; 3]>,
+    pub polygons: Vec<RawPolygon>,
+}
+
+/// A small fast hasher (FxHash) for integer keys.
+#[derive(Default, Clone, Copy)]
+pub(crate) struct Fx(u64);
+impl Hasher for Fx {
+    #[inline]
+    fn write(&mut self, bytes: &[u8]) {
+        for chunk in bytes.chunks(8) {
+            let mut b = [0u8; 8];
+            b[..chunk.len()].copy_from_slice(chunk);
+            self.write_u64(u64::from_le_bytes(b));
+        }
+    }
+    #[inline]
+    fn write_u64(&mut self, i: u64) {
+        self.0 = (self.0.rotate_left(5) ^ i).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+    #[inline]
+    fn write_u32(&mut self, i: u32) {
+        self.write_u64(i as u64);
+    }
+    #[inline]
+    fn write_i64(&mut self, i: i64) {
+        self.write_u64(i as u64);
+    }
+    #[inline]
+    fn write_usize(&mut self, i: usize) {
+        self.write_u64(i as u64);
+    }
+    #[inline]
+    fn finish(&self) -> u64 {
+        self.0
+    }
+}
+pub(crate) type FxBuild = BuildHasherDefault<Fx>;
+
+/// Validates, cleans and reports. `name` is the model name, `file` the name used in errors.
+pub(crate) fn clean(name: &str, file: &str, soup: Soup) -> Result<Model, ModelError> {
+    let Soup { vertices, polygons } = soup;
+    let nv = vertices.len();
+    let mut report = CleaningReport {
+        input_vertices: nv,
+        input_polygons: polygons.len(),
+        ..Default::default()
+    };
+
+    // Validation (the readers have done it with line numbers already; this covers from_soup).
+    for (i, p) in vertices.iter().enumerate() {
+        if p.iter().any(|c| !c.is_finite()) {
+            return Err(ModelError::NonFinite {
+                file: file.into(),
+                line: None,
+                vertex: i,
+                coords: *p,
+            });
+        }
+    }
+    for p in &polygons {
+        if p.verts.len() < 3 {
+            return Err(ModelError::TooFewVertices {
+                file: file.into(),
+                line: p.source.line,
+                polygon: p.source.element,
+                count: p.verts.len(),
+            });
+        }
+        if let Some(&bad) = p.verts.iter().find(|&&v| v as usize >= nv) {
+            return Err(ModelError::IndexOutOfRange {
+                file: file.into(),
+                line: p.source.line,
+                polygon: p.source.element,
+                index: bad as i64,
+                vertex_count: nv,
+                convention: "indices are 0-based",
+            });
+        }
+    }
+    if nv == 0 || polygons.is_empty() {
+        return Err(ModelError::Empty {
+            file: file.into(),
+            reason: format!("the input has {nv} vertices and {} polygons", polygons.len()),
+        });
+    }
+
+    // 1. Tolerances from the referenced vertices.
+    let mut referenced = vec![false; nv];
+    for p in &polygons {
+        for &v in &p.verts {
+            referenced[v as usize] = true;
+        }
+    }
+    let (lo, hi) = bbox_of(vertices.iter().zip(&referenced).filter(|(_, r)| **r).map(|(p, _)| p));
+    let diag = ((0..3).map(|k| (hi[k] - lo[k]) * (hi[k] - lo[k])).sum::<f64>()).sqrt();
+    let tolerances = Tolerances::for_scale(diag);
+
+    // 2. Weld.
+    let (weld_map, welded) = weld(&vertices, lo, tolerances.weld_abs());
+    report.welded_vertices = nv - welded.len();
+
+    // 3. Degenerate polygons.
+    let area2_min = 2.0 * tolerances.area_abs();
+    let mut kept: Vec<(Vec<u32>, [f64; 3], RawPolygon)> = Vec::with_capacity(polygons.len());
+    for mut rp in polygons {
+        // Remap in place, dropping consecutive repeats (cyclically).
+        let mut vs = std::mem::take(&mut rp.verts);
+        let mut w = 0;
+        for r in 0..vs.len() {
+            let x = weld_map[vs[r] as usize];
+            if w == 0 || vs[w - 1] != x {
+                vs[w] = x;
+                w += 1;
+            }
+        }
+        vs.truncate(w);
+        while vs.len() > 1 && vs.first() == vs.last() {
+            vs.pop();
+        }
+        let nrm = newell(vs.iter().map(|&v| &welded[v as usize]));
+        let len = (nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]).sqrt();
+        if !has_three_distinct(&vs) || all_collinear(&welded, &vs) || len.is_nan() || len < area2_min || len <= 0.0 {
+            report.zero_area_polygons_dropped += 1;
+            continue;
+        }
+        kept.push((vs, nrm, rp));
+    }
+
+    // 4. Duplicates: sort the polygons by their canonical rotation; in each group of equal
+    // ones the first in input order survives.
+    let mut arena: Vec<u32> = Vec::with_capacity(kept.iter().map(|k| k.0.len()).sum());
+    let mut off: Vec<usize> = Vec::with_capacity(kept.len() + 1);
+    off.push(0);
+    for (vs, _, _) in &kept {
+        write_canonical(vs, &mut arena);
+        off.push(arena.len());
+    }
+    let key = |i: u32| &arena[off[i as usize]..off[i as usize + 1]];
+    let mut order: Vec<u32> = (0..kept.len() as u32).collect();
+    order.sort_unstable_by(|&a, &b| key(a).cmp(key(b)).then(a.cmp(&b)));
+    let mut dup = vec![false; kept.len()];
+    for w in order.windows(2) {
+        if key(w[0]) == key(w[1]) {
+            dup[w[1] as usize] = true;
+        }
+    }
+    let (mut rev, mut rev_key) = (Vec::new(), Vec::new());
+    for (i, (vs, _, _)) in kept.iter().enumerate() {
+        if dup[i] {
+            report.duplicate_polygons_dropped += 1;
+            continue;
+        }
+        rev.clear();
+        rev.extend(vs.iter().rev());
+        rev_key.clear();
+        write_canonical(&rev, &mut rev_key);
+        let pos = order.partition_point(|&j| key(j) < rev_key.as_slice());
+        if let Some(&j) = order.get(pos)
+            && key(j) == rev_key.as_slice()
+            && (j as usize) < i
+        {
+            report.two_sided_pairs += 1;
+        }
+    }
+    drop((arena, off, order));
+    let kept: Vec<_> = kept.into_iter().zip(dup).filter(|(_, d)| !d).map(|(k, _)| k).collect();
+
+    // 5. Planarity / convexity.
+    let mut out: Vec<(Vec<u32>, RawPolygon)> = Vec::with_capacity(kept.len());
+    for (vs, nrm, rp) in kept {
+        match classify(&welded, &vs, nrm) {
+            Shape::Keep => out.push((vs, rp)),
+            Shape::Triangulated {
+                tris,
+                nonplanar,
+                fallback,
+            } => {
+                report.nonplanar_or_nonconvex_triangulated += 1;
+                report.nonplanar_polygons += nonplanar as usize;
+                report.triangulation_fallbacks += fallback as usize;
+                report.triangles_from_triangulation += tris.len();
+                for t in tris {
+                    let src = RawPolygon {
+                        verts: Vec::new(),
+                        source: rp.source,
+                        material: rp.material.clone(),
+                    };
+                    out.push((t.to_vec(), src));
+                }
+            }
+        }
+    }
+    if out.is_empty() {
+        return Err(ModelError::Empty {
+            file: file.into(),
+            reason: format!(
+                "all {} polygons were dropped ({} zero-area, {} duplicate)",
+                report.input_polygons, report.zero_area_polygons_dropped, report.duplicate_polygons_dropped
+            ),
+        });
+    }
+
+    // 6. Unused vertices.
+    let mut remap = vec![u32::MAX; welded.len()];
+    let mut final_vertices: Vec<[f64; 3]> = Vec::new();
+    let mut final_polys: Vec<Polygon> = Vec::with_capacity(out.len());
+    for (vs, rp) in out {
+        let verts = vs
+            .into_iter()
+            .map(|v| {
+                let r = &mut remap[v as usize];
+                if *r == u32::MAX {
+                    *r = final_vertices.len() as u32;
+                    final_vertices.push(welded[v as usize]);
+                }
+                VertexId(*r)
+            })
+            .collect();
+        final_polys.push(Polygon {
+            verts,
+            source: rp.source,
+            material: rp.material,
+        });
+    }
+    report.unused_vertices = welded.len() - final_vertices.len();
+    report.final_vertices = final_vertices.len();
+    report.final_polygons = final_polys.len();
+
+    // 7. Diagnostics.
+    let edges = undirected_edges(&final_polys);
+    let mut i = 0;
+    let mut unique: Vec<(u32, u32)> = Vec::with_capacity(edges.len() / 2 + 1);
+    while i < edges.len() {
+        let mut j = i;
+        while j < edges.len() && edges[j] == edges[i] {
+            j += 1;
+        }
+        match j - i {
+            1 => report.open_edges += 1,
+            2 => {}
+            _ => report.non_manifold_edges += 1,
+        }
+        unique.push(edges[i]);
+        i = j;
+    }
+    report.t_junctions = count_t_junctions(&final_vertices, &unique);
+
+    // Degeneracy: at least 4 affinely independent vertices.
+    let independent = affine_rank(&final_vertices);
+    if independent < 4 {
+        let shape = match independent {
+            0 | 1 => "coincident",
+            2 => "collinear",
+            _ => "coplanar",
+        };
+        return Err(ModelError::Degenerate {
+            file: file.into(),
+            independent,
+            shape,
+        });
+    }
+
+    Ok(Model {
+        name: name.to_string(),
+        vertices: final_vertices,
+        polygons: final_polys,
+        report,
+        tolerances,
+    })
+}
+
+/// True when all vertices of `vs` are exactly collinear (or coincide).
+fn all_collinear(pts: &[[f64; 3]], vs: &[u32]) -> bool {
+    let a = &pts[vs[0] as usize];
+    let Some(b) = vs.iter().map(|&v| &pts[v as usize]).find(|p| *p != a) else {
+        return true;
+    };
+    vs.iter().all(|&v| collinear(a, b, &pts[v as usize]))
+}
+
+/// True when `vs` has at least 3 distinct entries.
+fn has_three_distinct(vs: &[u32]) -> bool {
+    let Some(&a) = vs.first() else { return false };
+    let Some(&b) = vs.iter().find(|&&x| x != a) else {
+        return false;
+    };
+    vs.iter().any(|&x| x != a && x != b)
+}
+
+/// Appends the lexicographically smallest rotation of the cyclic sequence `vs` to `out`.
+fn write_canonical(vs: &[u32], out: &mut Vec<u32>) {
+    let n = vs.len();
+    let min = vs.iter().copied().min().unwrap_or(0);
+    let mut best: Option<usize> = None;
+    for s in (0..n).filter(|&s| vs[s] == min) {
+        best = Some(match best {
+            None => s,
+            Some(b) => {
+                let cur = (0..n).map(|i| vs[(s + i) % n]);
+                let old = (0..n).map(|i| vs[(b + i) % n]);
+                if cur.lt(old) { s } else { b }
+            }
+        });
+    }
+    let s = best.unwrap_or(0);
+    out.extend_from_slice(&vs[s..]);
+    out.extend_from_slice(&vs[..s]);
+}
+
+/// Welds vertices closer than `d`, visiting them in order; each merges into the nearest earlier
+/// survivor. Returns the map input index -> survivor index and the survivors' coordinates.
+///
+/// Survivors are hashed in a grid of cell size `2d`: the ball of radius `d` around a point
+/// meets at most 2 cells per axis (found with the same monotone cell function, so the search
+/// is conservative), i.e. at most 8 lookups per vertex.
+fn weld(pts: &[[f64; 3]], origin: [f64; 3], d: f64) -> (Vec<u32>, Vec<[f64; 3]>) {
+    let mut map = Vec::with_capacity(pts.len());
+    let mut survivors: Vec<[f64; 3]> = Vec::new();
+    // Cell -> head of a linked list of survivors through `link`.
+    let mut grid: HashMap<[i64; 3], u32, FxBuild> = HashMap::default();
+    grid.reserve(pts.len());
+    let mut link: Vec<u32> = Vec::new();
+    let d2 = d * d;
+    let h = 2.0 * d;
+    // `as` saturates: coordinates far outside the bbox just share extreme cells.
+    let cell1 = |x: f64, k: usize| ((x - origin[k]) / h).floor() as i64;
+    for p in pts {
+        let c: [i64; 3] = std::array::from_fn(|k| cell1(p[k], k));
+        let lo: [i64; 3] = std::array::from_fn(|k| cell1(p[k] - d, k));
+        let hi: [i64; 3] = std::array::from_fn(|k| cell1(p[k] + d, k));
+        let mut best: Option<(f64, u32)> = None;
+        for x in lo[0]..=hi[0] {
+            for y in lo[1]..=hi[1] {
+                for z in lo[2]..=hi[2] {
+                    let mut s = grid.get(&[x, y, z]).copied().unwrap_or(u32::MAX);
+                    while s != u32::MAX {
+                        let q = &survivors[s as usize];
+                        let dist2: f64 = (0..3).map(|k| (p[k] - q[k]) * (p[k] - q[k])).sum();
+                        if dist2 < d2 && best.is_none_or(|(bd, bs)| dist2 < bd || (dist2 == bd && s < bs)) {
+                            best = Some((dist2, s));
+                        }
+                        s = link[s as usize];
+                    }
+                }
+            }
+        }
+        match best {
+            Some((_, s)) => map.push(s),
+            None => {
+                let s = survivors.len() as u32;
+                survivors.push(*p);
+                let head = grid.entry(c).or_insert(u32::MAX);
+                link.push(*head);
+                *head = s;
+                map.push(s);
+            }
+        }
+    }
+    (map, survivors)
+}
+
+/// All polygon edges as sorted `(min, max)` pairs, sorted.
+fn undirected_edges(polys: &[Polygon]) -> Vec<(u32, u32)> {
+    let mut edges: Vec<(u32, u32)> = Vec::with_capacity(polys.iter().map(|p| p.verts.len()).sum());
+    for p in polys {
+        let n = p.verts.len();
+        for i in 0..n {
+            let (a, b) = (p.verts[i].0, p.verts[(i + 1) % n].0);
+            edges.push((a.min(b), a.max(b)));
+        }
+    }
+    edges.sort_unstable();
+    edges
+}
+
+/// Counts (vertex, edge) pairs where the vertex lies exactly on the edge, strictly between its
+/// endpoints. A uniform grid (about 2 vertices per cell) holds the vertices. Each edge is cut
+/// into pieces no longer than a cell; the cells met by each piece's bounding box, slightly
+/// enlarged to absorb the rounding of the cut points, are searched. The cell function is
+/// monotone, so a vertex on the edge is always in a searched cell.
+fn count_t_junctions(pts: &[[f64; 3]], edges: &[(u32, u32)]) -> usize {
+    if pts.is_empty() || edges.is_empty() {
+        return 0;
+    }
+    let (lo, hi) = bbox_of(pts.iter());
+    let ext: [f64; 3] = std::array::from_fn(|k| hi[k] - lo[k]);
+    let max_ext = ext.iter().copied().fold(0.0f64, f64::max);
+    if max_ext <= 0.0 {
+        return 0;
+    }
+    let target = (pts.len() as f64 / 2.0).max(1.0);
+    let cells_for = |h: f64| -> f64 { ext.iter().map(|e| (e / h).floor() + 1.0).product() };
+    let mut h = max_ext / target.cbrt();
+    for _ in 0..200 {
+        let c = cells_for(h);
+        if c > 4.0 * target {
+            h *= 1.25;
+        } else if c < target / 4.0 && h > max_ext * 1e-6 {
+            h /= 1.25;
+        } else {
+            break;
+        }
+    }
+    let dims: [usize; 3] = std::array::from_fn(|k| ((ext[k] / h).floor() as usize + 1).max(1));
+    let ncell = dims[0] * dims[1] * dims[2];
+    let cell1 = |x: f64, k: usize| -> usize {
+        let c = ((x - lo[k]) / h).floor();
+        if c.is_nan() || c < 0.0 {
+            0
+        } else {
+            (c as usize).min(dims[k] - 1)
+        }
+    };
+    let lin = |c: [usize; 3]| (c[0] * dims[1] + c[1]) * dims[2] + c[2];
+
+    // CSR grid.
+    let mut start = vec![0u32; ncell + 1];
+    let vcell: Vec<usize> = pts
+        .iter()
+        .map(|p| lin(std::array::from_fn(|k| cell1(p[k], k))))
+        .collect();
+    for &c in &vcell {
+        start[c + 1] += 1;
+    }
+    for i in 0..ncell {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut items = vec![0u32; pts.len()];
+    for (v, &c) in vcell.iter().enumerate() {
+        items[fill[c] as usize] = v as u32;
+        fill[c] += 1;
+    }
+    drop(fill);
+    // Slack for the rounding of interpolated cut points.
+    let eps = 1e-9 * max_ext;
+
+    let mut cell_stamp = vec![u32::MAX; ncell];
+    let mut count = 0usize;
+    for (ei, &(a, b)) in edges.iter().enumerate() {
+        let stamp = ei as u32;
+        let (pa, pb) = (&pts[a as usize], &pts[b as usize]);
+        let len = (0..3).map(|k| (pb[k] - pa[k]) * (pb[k] - pa[k])).sum::<f64>().sqrt();
+        let pieces = ((len / h).ceil() as usize).max(1);
+        // Axis of the largest extent, for the strictly-between test.
+        let ax = (0..3)
+            .max_by(|&i, &j| {
+                (pb[i] - pa[i])
+                    .abs()
+                    .partial_cmp(&(pb[j] - pa[j]).abs())
+                    .unwrap_or(std::cmp::Ordering::Equal)
+            })
+            .unwrap_or(0);
+        let (lo_ax, hi_ax) = if pa[ax] < pb[ax] {
+            (pa[ax], pb[ax])
+        } else {
+            (pb[ax], pa[ax])
+        };
+        let at = |i: usize| -> [f64; 3] {
+            if i == 0 {
+                *pa
+            } else if i == pieces {
+                *pb
+            } else {
+                let t = i as f64 / pieces as f64;
+                std::array::from_fn(|k| pa[k] + (pb[k] - pa[k]) * t)
+            }
+        };
+        let mut s0 = at(0);
+        for pi in 0..pieces {
+            let s1 = at(pi + 1);
+            let slack = if pieces == 1 { 0.0 } else { eps };
+            let c0: [usize; 3] = std::array::from_fn(|k| cell1(s0[k].min(s1[k]) - slack, k));
+            let c1: [usize; 3] = std::array::from_fn(|k| cell1(s0[k].max(s1[k]) + slack, k));
+            for x in c0[0]..=c1[0] {
+                for y in c0[1]..=c1[1] {
+                    for z in c0[2]..=c1[2] {
+                        let ci = lin([x, y, z]);
+                        if cell_stamp[ci] == stamp {
+                            continue;
+                        }
+                        cell_stamp[ci] = stamp;
+                        for &v in &items[start[ci] as usize..start[ci + 1] as usize] {
+                            if v == a || v == b {
+                                continue;
+                            }
+                            let q = &pts[v as usize];
+                            if q[ax] > lo_ax && q[ax] < hi_ax && collinear(pa, pb, q) {
+                                count += 1;
+                            }
+                        }
+                    }
+                }
+            }
+            s0 = s1;
+        }
+    }
+    count
+}
+
+/// Size (0 to 4) of the largest affinely independent subset found greedily (exact).
+fn affine_rank(pts: &[[f64; 3]]) -> usize {
+    let Some(a) = pts.first() else { return 0 };
+    let Some(b) = pts.iter().find(|p| *p != a) else {
+        return 1;
+    };
+    let Some(c) = pts.iter().find(|p| !collinear(a, b, p)) else {
+        return 2;
+    };
+    if pts.iter().any(|p| orient3d(a, b, c, p) != 0) {
+        4
+    } else {
+        3
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn soup(vertices: Vec<[f64; 3]>, polys: Vec<Vec<u32>>) -> Soup {
+        Soup {
+            vertices,
+            polygons: polys
+                .into_iter()
+                .enumerate()
+                .map(|(i, verts)| RawPolygon {
+                    verts,
+                    source: SourceRef { line: None, element: i },
+                    material: None,
+                })
+                .collect(),
+        }
+    }
+
+    fn cube() -> (Vec<[f64; 3]>, Vec<Vec<u32>>) {
+        let v = (0..8)
+            .map(|i| [(i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64])
+            .collect();
+        // Outward-facing CCW quads.
+        let f = vec![
+            vec![0, 2, 3, 1],
+            vec![4, 5, 7, 6],
+            vec![0, 1, 5, 4],
+            vec![2, 6, 7, 3],
+            vec![0, 4, 6, 2],
+            vec![1, 3, 7, 5],
+        ];
+        (v, f)
+    }
+
+    #[test]
+    fn canonical_rotation() {
+        let canonical = |vs: &[u32]| {
+            let mut out = vec![7];
+            write_canonical(vs, &mut out);
+            out
+        };
+        assert_eq!(canonical(&[3, 1, 2]), vec![7, 1, 2, 3]);
+        assert_eq!(canonical(&[2, 0, 5, 0, 1]), vec![7, 0, 1, 2, 0, 5]);
+        assert!(has_three_distinct(&[1, 2, 1, 3]));
+        assert!(!has_three_distinct(&[1, 2, 1, 2]));
+        assert!(!has_three_distinct(&[]));
+    }
+
+    #[test]
+    fn weld_merges_close_points_only() {
+        let pts = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1e-9, 0.0, 0.0],
+            [1.0, 1e-9, 0.0],
+            [1.0, 3e-7, 0.0],
+        ];
+        let (map, surv) = weld(&pts, [0.0; 3], 1e-7);
+        assert_eq!(map, vec![0, 1, 0, 1, 2]);
+        assert_eq!(surv.len(), 3);
+        // Survivors keep their exact coordinates.
+        assert_eq!(surv[1], [1.0, 0.0, 0.0]);
+    }
+
+    #[test]
+    fn weld_across_cell_boundary() {
+        let d = 1.0;
+        let pts = [[0.999, 0.0, 0.0], [1.001, 0.0, 0.0], [-0.5, -0.5, -0.5]];
+        let (map, _) = weld(&pts, [-0.5; 3], d);
+        assert_eq!(map[0], map[1]);
+        assert_ne!(map[0], map[2]);
+    }
+
+    #[test]
+    fn closed_cube_is_clean() {
+        let (v, f) = cube();
+        let m = clean("cube", "cube", soup(v, f)).unwrap();
+        let r = &m.report;
+        assert_eq!((r.final_vertices, r.final_polygons), (8, 6));
+        assert_eq!((r.open_edges, r.non_manifold_edges, r.t_junctions), (0, 0, 0));
+        assert_eq!(r.nonplanar_or_nonconvex_triangulated, 0);
+        assert_eq!(m.triangle_count(), 12);
+    }
+
+    #[test]
+    fn duplicates_and_two_sided() {
+        let (v, mut f) = cube();
+        f.push(vec![2, 3, 1, 0]); // same as face 0, rotated: duplicate
+        f.push(vec![1, 3, 2, 0]); // reversed face 0: two-sided, kept
+        let m = clean("c", "c", soup(v, f)).unwrap();
+        assert_eq!(m.report.duplicate_polygons_dropped, 1);
+        assert_eq!(m.report.two_sided_pairs, 1);
+        assert_eq!(m.report.final_polygons, 7);
+        // The two-sided face makes its 4 edges used 3 times.
+        assert_eq!(m.report.non_manifold_edges, 4);
+    }
+
+    #[test]
+    fn t_junction_and_open_edges() {
+        // Two squares side by side in z=0, the right one split at its left edge's midpoint,
+        // plus an apex to make it 3D.
+        let v = vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [2.0, 0.0, 0.0],
+            [2.0, 1.0, 0.0],
+            [1.0, 0.5, 0.0],
+            [0.5, 0.5, 1.0],
+        ];
+        let f = vec![vec![0, 1, 2, 3], vec![1, 4, 5, 2, 6], vec![0, 1, 7]];
+        let m = clean("t", "t", soup(v, f)).unwrap();
+        // Vertex 6 lies inside edge 1-2 of the left square.
+        assert_eq!(m.report.t_junctions, 1);
+        // Edges: left square 4 (0-1 shared with the triangle), right pentagon 5, triangle 3.
+        // All 12 edge uses are distinct edges except 0-1 (used twice): 11 edges, 10 open.
+        assert_eq!(m.report.open_edges, 10);
+        assert_eq!(m.report.nonplanar_or_nonconvex_triangulated, 0);
+    }
+
+    #[test]
+    fn degenerate_polygons_dropped() {
+        let (mut v, mut f) = cube();
+        v.push([0.5, 0.0, 0.0]); // 8: on edge 0-1
+        v.push([1e-12, 0.0, 0.0]); // 9: welds to 0
+        f.push(vec![0, 8, 1]); // collinear
+        f.push(vec![0, 9, 2]); // two distinct after welding
+        f.push(vec![0, 0, 2, 2]); // two distinct
+        let m = clean("d", "d", soup(v, f)).unwrap();
+        let r = &m.report;
+        assert_eq!(r.zero_area_polygons_dropped, 3);
+        assert_eq!(r.welded_vertices, 1);
+        assert_eq!(r.unused_vertices, 1); // vertex 8
+        assert_eq!(r.final_vertices, 8);
+        assert_eq!(
+            r.final_vertices,
+            r.input_vertices - r.welded_vertices - r.unused_vertices
+        );
+    }
+
+    #[test]
+    fn flat_model_is_degenerate() {
+        let v = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]];
+        let e = clean("f", "f", soup(v, vec![vec![0, 1, 2, 3]])).unwrap_err();
+        assert!(matches!(e, ModelError::Degenerate { independent: 3, .. }), "{e}");
+    }
+
+    #[test]
+    fn all_dropped_is_empty() {
+        let v = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 0.0, 1.0]];
+        let e = clean("e", "e", soup(v, vec![vec![0, 1, 2]])).unwrap_err();
+        assert!(matches!(e, ModelError::Empty { .. }), "{e}");
+    }
+
+    #[test]
+    fn t_junctions_on_long_diagonal_edges() {
+        // A long diagonal edge with many vertices exactly on it, and a grid of others.
+        let mut v: Vec<[f64; 3]> = Vec::new();
+        for i in 0..10 {
+            for j in 0..10 {
+                for k in 0..10 {
+                    v.push([i as f64 * 10.0 + 0.3, j as f64 * 10.0 + 0.7, k as f64 * 10.0 + 0.1]);
+                }
+            }
+        }
+        let base = v.len() as u32;
+        for i in 0..=64 {
+            let t = i as f64;
+            v.push([t, t, t]); // exactly on the diagonal from (0,0,0) to (64,64,64)
+        }
+        let mut f: Vec<Vec<u32>> = vec![vec![base, base + 64, 0]];
+        // Reference every vertex in some triangle so none is dropped.
+        for i in 0..1000u32 {
+            f.push(vec![i, (i + 1) % 1000, (i + 17) % 1000]);
+        }
+        for i in 1..64u32 {
+            f.push(vec![base + i, 5, 900]);
+        }
+        let m = clean("l", "l", soup(v, f)).unwrap();
+        assert!(m.report.t_junctions >= 63, "{}", m.report.t_junctions);
+    }
+}

@@ -1,0 +1,169 @@
+//! Input errors. Each names the file, the line where known, the offending element, and
+//! suggests a fix.
+
+use std::path::PathBuf;
+
+/// `file:line` or just `file`.
+fn loc(file: &str, line: &Option<usize>) -> String {
+    match line {
+        Some(l) => format!("{file}:{l}"),
+        None => file.to_string(),
+    }
+}
+
+/// Why a model could not be loaded.
+#[derive(Debug, thiserror::Error)]
+pub enum ModelError {
+    /// The file is missing or unreadable.
+    #[error(
+        "cannot read model file `{}`: {source}; check that the path exists and is readable",
+        path.display()
+    )]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+
+    /// The extension is neither `.obj` nor `.mesh`.
+    #[error(
+        "`{}`: unknown model file extension `{ext}`; supported are `.obj` (Wavefront OBJ) and \
+         `.mesh` (simple text mesh): convert the model or rename the file if it is one of these",
+        path.display()
+    )]
+    UnknownExtension { path: PathBuf, ext: String },
+
+    /// A line does not have the expected form.
+    #[error(
+        "{file}:{line}: malformed {element}: expected {expected}, found `{found}`; fix or remove \
+         this line"
+    )]
+    Malformed {
+        file: String,
+        line: usize,
+        /// What the line was supposed to be, e.g. `vertex 4` or `header`.
+        element: String,
+        expected: String,
+        found: String,
+    },
+
+    /// A coordinate is NaN or infinite.
+    #[error(
+        "{}: vertex {vertex} (0-based) has a non-finite coordinate {coords:?}; every coordinate \
+         must be a finite number: fix the exporter or remove the vertex",
+        loc(file, line)
+    )]
+    NonFinite {
+        file: String,
+        line: Option<usize>,
+        /// 0-based vertex index.
+        vertex: usize,
+        coords: [f64; 3],
+    },
+
+    /// A polygon refers to a vertex that does not exist.
+    #[error(
+        "{}: polygon {polygon} (0-based) refers to vertex index {index}, but there are \
+         {vertex_count} vertices ({convention}); fix the index or add the missing vertices",
+        loc(file, line)
+    )]
+    IndexOutOfRange {
+        file: String,
+        line: Option<usize>,
+        /// 0-based polygon (face) index.
+        polygon: usize,
+        /// The index as written in the input.
+        index: i64,
+        /// Number of vertices it had to be checked against.
+        vertex_count: usize,
+        /// The index convention of the format.
+        convention: &'static str,
+    },
+
+    /// A polygon in the input has fewer than 3 vertices.
+    #[error(
+        "{}: polygon {polygon} (0-based) has {count} vertices, a polygon needs at least 3; \
+         remove it or add its missing vertices",
+        loc(file, line)
+    )]
+    TooFewVertices {
+        file: String,
+        line: Option<usize>,
+        polygon: usize,
+        count: usize,
+    },
+
+    /// The `.mesh` header's counts do not match the file.
+    #[error(
+        "{file}:{line}: the header declares {declared} {what}, but the file has {found}; correct \
+         the counts in the header"
+    )]
+    CountMismatch {
+        file: String,
+        /// The header line (file too short) or the first line past the declared content.
+        line: usize,
+        /// `"vertices"` or `"polygons"`.
+        what: &'static str,
+        declared: usize,
+        found: usize,
+    },
+
+    /// No vertices or no polygons (in the input, or left after cleaning).
+    #[error("{file}: empty model: {reason}; the model needs at least one non-degenerate polygon")]
+    Empty { file: String, reason: String },
+
+    /// All vertices lie in one plane (or on one line, or at one point).
+    #[error(
+        "{file}: degenerate model: only {independent} affinely independent vertices (all \
+         vertices are {shape}); a 3D model needs at least 4 non-coplanar vertices"
+    )]
+    Degenerate {
+        file: String,
+        /// Size of the largest affinely independent vertex set found (0 to 3).
+        independent: usize,
+        /// `"coincident"`, `"collinear"` or `"coplanar"`.
+        shape: &'static str,
+    },
+}
+
+impl ModelError {
+    /// The 1-based line the error refers to, when known.
+    pub fn line(&self) -> Option<usize> {
+        match self {
+            ModelError::Malformed { line, .. } | ModelError::CountMismatch { line, .. } => Some(*line),
+            ModelError::NonFinite { line, .. }
+            | ModelError::IndexOutOfRange { line, .. }
+            | ModelError::TooFewVertices { line, .. } => *line,
+            _ => None,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn messages_name_file_line_and_element() {
+        let e = ModelError::IndexOutOfRange {
+            file: "a.obj".into(),
+            line: Some(7),
+            polygon: 2,
+            index: 9,
+            vertex_count: 8,
+            convention: "OBJ indices are 1-based",
+        };
+        let s = e.to_string();
+        assert!(s.starts_with("a.obj:7: polygon 2"), "{s}");
+        assert!(s.contains("index 9") && s.contains("8 vertices"), "{s}");
+        assert_eq!(e.line(), Some(7));
+        let e = ModelError::NonFinite {
+            file: "soup".into(),
+            line: None,
+            vertex: 3,
+            coords: [f64::NAN, 0.0, 0.0],
+        };
+        assert!(e.to_string().starts_with("soup: vertex 3"), "{e}");
+        assert_eq!(e.line(), None);
+    }
+}

@@ -1,0 +1,286 @@
+//! Model input: read a polygon model, clean it, and say exactly what was cleaned.
+//!
+//! # Conventions
+//!
+//! - **Front side.** The front side of a polygon is the side from which its vertices appear
+//!   counter-clockwise; [`Model::polygon_normal`] (Newell's normal) points to the front. The
+//!   front faces *free space*: as in Quake's `e1m1.obj`, whose faces look into the playable
+//!   space, a viewer standing in the model's free space sees the front sides of the walls around
+//!   them.
+//! - **Coordinates** are kept exactly as read (`f64`); cleaning never moves a vertex. Welding
+//!   merges a vertex into an earlier one, whose coordinates survive unchanged, so the exact
+//!   predicates of [`crate::predicates`] see input coordinates.
+//! - **Indices.** [`Model::vertices`] and [`Model::polygons`] are the cleaned model; every vertex
+//!   is used by at least one polygon. [`SourceRef`] points each polygon back at the face of the
+//!   input file it came from (a face triangulated on input gives several polygons with the same
+//!   `SourceRef`).
+//!
+//! # Formats
+//!
+//! [`load_model`] dispatches on the file extension (case-insensitive):
+//!
+//! ## Wavefront OBJ (`.obj`)
+//!
+//! Read by a small parser of our own rather than `tobj`, because `tobj` does not report line
+//! numbers, and every input error here names its line. Understood lines:
+//! `v x y z [w | r g b]` (only x, y, z are used), `f` with vertex references in any of the forms
+//! `i`, `i/j`, `i/j/k`, `i//k` (only the position index `i` is used; 1-based; negative indices
+//! count back from the last vertex defined so far; positive indices may refer to vertices defined
+//! later in the file), and `usemtl name` (the material of the following faces; the `.mtl` file is
+//! never opened, so a missing one is harmless). Everything after `#` is a comment. All other
+//! lines (`vt`, `vn`, `o`, `g`, `s`, `mtllib`, `l`, `p`, ...) are ignored, so all objects and
+//! groups end up in one polygon soup. Backslash line continuation is not supported.
+//!
+//! ## Simple text mesh (`.mesh`)
+//!
+//! ```text
+//! # comments start with '#' (anywhere on a line); blank lines are ignored
+//! <vertex_count> <polygon_count>
+//! x y z                  (vertex_count lines, one vertex per line)
+//! n i0 i1 ... i(n-1)     (polygon_count lines, one polygon per line; n >= 3;
+//!                         0-based vertex indices; counter-clockwise seen from the front)
+//! ```
+//!
+//! Numbers are separated by any whitespace; coordinates are anything Rust's `f64` parser
+//! accepts (non-finite values are rejected). Each vertex and each polygon must be on a line of
+//! its own with exactly the stated number of values. Content after the last polygon is an
+//! error (the header's counts would not match the file).
+//!
+//! # Cleaning
+//!
+//! Both readers and [`from_soup`] apply the same cleaning, in this order, and count every
+//! change in the [`CleaningReport`] (nothing is changed silently):
+//!
+//! 1. **Tolerances** are [`Tolerances::for_scale`] of the bounding-box diagonal of the vertices
+//!    referenced by some polygon (stray unreferenced vertices do not inflate it).
+//! 2. **Welding.** Vertices are visited in file order; a vertex closer than
+//!    [`Tolerances::weld_abs`] to an earlier surviving vertex is merged into the nearest such
+//!    vertex (grid hash with cell size = weld distance, expected O(n)). Chains are not
+//!    transitive: each vertex is compared with the survivors only.
+//! 3. **Degenerate polygons.** After welding, consecutive repeated vertices are removed. A
+//!    polygon with fewer than 3 distinct vertices, with all vertices exactly collinear
+//!    ([`crate::predicates::collinear`]), or with (Newell) area below
+//!    [`Tolerances::area_abs`] is dropped (`zero_area_polygons_dropped`).
+//! 4. **Duplicates.** A polygon with the same cyclic vertex sequence as an earlier one (any
+//!    starting vertex, same orientation) is dropped (`duplicate_polygons_dropped`). A polygon
+//!    whose sequence is the *reverse* of an earlier one is kept: two opposite faces are a
+//!    legitimate two-sided wall; such pairs are counted in `two_sided_pairs`.
+//! 5. **Planarity and convexity.** A polygon with more than 3 vertices is kept as it is when
+//!    all its vertices are exactly coplanar ([`crate::predicates::orient3d`]) and it is convex:
+//!    no reflex vertex and winding once around its interior. Vertices collinear with their
+//!    neighbours (a straight angle, typical where a T-junction was fixed) are allowed, because
+//!    removing them would open a crack and triangulating would add edges that are not in the
+//!    model. Otherwise it is triangulated in its plane (`nonplanar_or_nonconvex_triangulated`,
+//!    `triangles_from_triangulation`): it is projected onto the coordinate plane that drops the
+//!    dominant axis of its Newell normal and ear-clipped with exact 2D orientation tests; the
+//!    triangles keep the polygon's winding, source and material. A non-planar quad whose
+//!    projection is convex is split along its shorter diagonal. A polygon whose projection is
+//!    not simple (self-intersecting, or touching itself) is triangulated best-effort and counted
+//!    in `triangulation_fallbacks`.
+//! 6. **Unused vertices** (referenced by no surviving polygon) are dropped and the indices
+//!    remapped (`unused_vertices`). So `final_vertices = input_vertices - welded_vertices -
+//!    unused_vertices`.
+//! 7. **Diagnostics** of the final polygons (reported, not repaired): `open_edges` (undirected
+//!    edges used by exactly one polygon), `non_manifold_edges` (used by more than two),
+//!    `t_junctions` (pairs of a vertex and an edge such that the vertex lies exactly on the
+//!    edge, strictly between its endpoints; found with a uniform grid over the vertices).
+//!
+//! Finally the model must have at least one polygon ([`ModelError::Empty`]) and at least four
+//! non-coplanar vertices ([`ModelError::Degenerate`]).
+
+mod clean;
+mod error;
+mod mesh;
+mod obj;
+mod report;
+mod triangulate;
+
+use std::path::Path;
+
+use crate::ids::{PolygonId, VertexId};
+use crate::tolerances::Tolerances;
+
+pub use error::ModelError;
+pub use report::CleaningReport;
+
+/// Where a polygon came from in the input.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct SourceRef {
+    /// 1-based line number in the file, when the polygon came from a file.
+    pub line: Option<usize>,
+    /// 0-based index of the face among the faces of the file (or of the soup passed to
+    /// [`from_soup`]).
+    pub element: usize,
+}
+
+/// A cleaned polygon: at least 3 distinct vertices; planar and convex when it has more than 3.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Polygon {
+    /// Vertices, counter-clockwise seen from the front (free-space) side.
+    pub verts: Vec<VertexId>,
+    /// The input face it came from.
+    pub source: SourceRef,
+    /// Material name (`usemtl` in OBJ), if any.
+    pub material: Option<String>,
+}
+
+/// A cleaned polygon model.
+#[derive(Clone, Debug)]
+pub struct Model {
+    /// Model name (the file stem for files).
+    pub name: String,
+    /// Welded vertices, each used by some polygon.
+    pub vertices: Vec<[f64; 3]>,
+    /// Cleaned polygons.
+    pub polygons: Vec<Polygon>,
+    /// What cleaning did.
+    pub report: CleaningReport,
+    /// Tolerances derived from the model's size.
+    pub tolerances: Tolerances,
+}
+
+impl Model {
+    /// Axis-aligned bounding box `(min, max)` of the vertices (all zeros for no vertices).
+    pub fn bbox(&self) -> ([f64; 3], [f64; 3]) {
+        bbox_of(self.vertices.iter())
+    }
+
+    /// Number of triangles when every polygon is fanned: `sum(n - 2)`.
+    pub fn triangle_count(&self) -> usize {
+        self.polygons.iter().map(|p| p.verts.len().saturating_sub(2)).sum()
+    }
+
+    /// Newell normal of polygon `p` (not normalized; its length is twice the area for a planar
+    /// polygon). Points to the front side, from which the vertices appear counter-clockwise.
+    pub fn polygon_normal(&self, p: PolygonId) -> [f64; 3] {
+        let poly = &self.polygons[p.idx()];
+        newell(poly.verts.iter().map(|v| &self.vertices[v.idx()]))
+    }
+}
+
+/// Loads a model file, dispatching on its extension (`.obj` or `.mesh`, case-insensitive), and
+/// cleans it (see the module documentation).
+pub fn load_model(path: &Path) -> Result<Model, ModelError> {
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    if ext != "obj" && ext != "mesh" {
+        return Err(ModelError::UnknownExtension {
+            path: path.to_path_buf(),
+            ext,
+        });
+    }
+    let bytes = std::fs::read(path).map_err(|source| ModelError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let text = String::from_utf8_lossy(&bytes);
+    let file = path.display().to_string();
+    let name = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| file.clone());
+    let soup = if ext == "obj" {
+        obj::parse_obj(&file, &text)?
+    } else {
+        mesh::parse_mesh(&file, &text)?
+    };
+    clean::clean(&name, &file, soup)
+}
+
+/// Parses `.mesh` text (see the module documentation) and cleans it. `name` is used as the
+/// model name and as the file name in error messages.
+pub fn parse_mesh_str(name: &str, text: &str) -> Result<Model, ModelError> {
+    let soup = mesh::parse_mesh(name, text)?;
+    clean::clean(name, name, soup)
+}
+
+/// Parses Wavefront OBJ text (see the module documentation) and cleans it. `name` is used as
+/// the model name and as the file name in error messages.
+pub fn parse_obj_str(name: &str, text: &str) -> Result<Model, ModelError> {
+    let soup = obj::parse_obj(name, text)?;
+    clean::clean(name, name, soup)
+}
+
+/// Builds a model from a polygon soup (0-based indices, counter-clockwise from the front),
+/// applying the same validation and cleaning as the file readers. Errors name `name` as the
+/// file and have no line numbers; `SourceRef::element` is the index into `polygons`.
+pub fn from_soup(name: &str, vertices: Vec<[f64; 3]>, polygons: Vec<Vec<u32>>) -> Result<Model, ModelError> {
+    let polygons = polygons
+        .into_iter()
+        .enumerate()
+        .map(|(element, verts)| clean::RawPolygon {
+            verts,
+            source: SourceRef { line: None, element },
+            material: None,
+        })
+        .collect();
+    clean::clean(name, name, clean::Soup { vertices, polygons })
+}
+
+/// Bounding box of points; all zeros when there are none.
+pub(crate) fn bbox_of<'a>(pts: impl Iterator<Item = &'a [f64; 3]>) -> ([f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    let mut any = false;
+    for p in pts {
+        any = true;
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    if any { (lo, hi) } else { ([0.0; 3], [0.0; 3]) }
+}
+
+/// Newell normal of a closed polygon, computed relative to its first vertex for accuracy.
+pub(crate) fn newell<'a>(pts: impl Iterator<Item = &'a [f64; 3]> + Clone) -> [f64; 3] {
+    let mut it = pts.clone();
+    let Some(o) = it.next() else { return [0.0; 3] };
+    let o = *o;
+    let rel = |p: &[f64; 3]| [p[0] - o[0], p[1] - o[1], p[2] - o[2]];
+    let mut n = [0.0f64; 3];
+    let mut prev = [0.0f64; 3];
+    for p in it {
+        let cur = rel(p);
+        n[0] += (prev[1] - cur[1]) * (prev[2] + cur[2]);
+        n[1] += (prev[2] - cur[2]) * (prev[0] + cur[0]);
+        n[2] += (prev[0] - cur[0]) * (prev[1] + cur[1]);
+        prev = cur;
+    }
+    // Closing edge back to the origin vertex (relative coordinates 0).
+    n[0] += prev[1] * prev[2];
+    n[1] += prev[2] * prev[0];
+    n[2] += prev[0] * prev[1];
+    n
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn newell_ccw_points_up() {
+        let pts = [[0.0, 0.0, 5.0], [1.0, 0.0, 5.0], [1.0, 1.0, 5.0], [0.0, 1.0, 5.0]];
+        let n = newell(pts.iter());
+        assert_eq!(n, [0.0, 0.0, 2.0]);
+        let rev: Vec<_> = pts.iter().rev().copied().collect();
+        assert_eq!(newell(rev.iter()), [0.0, 0.0, -2.0]);
+    }
+
+    #[test]
+    fn newell_tilted_triangle() {
+        // Triangle in the plane x = 3, CCW seen from +x.
+        let pts = [[3.0, 0.0, 0.0], [3.0, 2.0, 0.0], [3.0, 0.0, 2.0]];
+        let n = newell(pts.iter());
+        assert_eq!(n, [4.0, 0.0, 0.0]);
+    }
+
+    #[test]
+    fn bbox_empty_and_some() {
+        assert_eq!(bbox_of(std::iter::empty()), ([0.0; 3], [0.0; 3]));
+        let pts = [[1.0, -2.0, 3.0], [-1.0, 4.0, 0.0]];
+        assert_eq!(bbox_of(pts.iter()), ([-1.0, -2.0, 0.0], [1.0, 4.0, 3.0]));
+    }
+}

@@ -1,0 +1,108 @@
+//! The cleaning report: every change cleaning made, and the mesh diagnostics.
+
+use std::fmt;
+
+use serde::Serialize;
+
+/// What cleaning did to a model (see the module documentation of [`crate::model`] for the
+/// exact meaning of each step). Invariant:
+/// `final_vertices == input_vertices - welded_vertices - unused_vertices`.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize)]
+pub struct CleaningReport {
+    /// Vertices in the input.
+    pub input_vertices: usize,
+    /// Polygons (faces) in the input.
+    pub input_polygons: usize,
+    /// Vertices merged into an earlier vertex closer than the weld distance.
+    pub welded_vertices: usize,
+    /// Vertices (after welding) used by no surviving polygon; dropped.
+    pub unused_vertices: usize,
+    /// Polygons dropped for having fewer than 3 distinct vertices after welding, all vertices
+    /// collinear, or area below the area tolerance.
+    pub zero_area_polygons_dropped: usize,
+    /// Polygons dropped as a same-orientation repeat of an earlier polygon.
+    pub duplicate_polygons_dropped: usize,
+    /// Polygons kept that are the reverse of an earlier polygon (two-sided walls).
+    pub two_sided_pairs: usize,
+    /// Polygons with more than 3 vertices that were triangulated (non-planar or non-convex).
+    pub nonplanar_or_nonconvex_triangulated: usize,
+    /// Of those, the non-planar ones.
+    pub nonplanar_polygons: usize,
+    /// Triangles produced by that triangulation.
+    pub triangles_from_triangulation: usize,
+    /// Polygons whose projection was not simple, triangulated best-effort.
+    pub triangulation_fallbacks: usize,
+    /// Undirected edges used by exactly one polygon.
+    pub open_edges: usize,
+    /// (vertex, edge) pairs with the vertex strictly inside the edge.
+    pub t_junctions: usize,
+    /// Undirected edges used by more than two polygons.
+    pub non_manifold_edges: usize,
+    /// Vertices in the cleaned model.
+    pub final_vertices: usize,
+    /// Polygons in the cleaned model.
+    pub final_polygons: usize,
+}
+
+impl fmt::Display for CleaningReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "input:   {} vertices, {} polygons",
+            self.input_vertices, self.input_polygons
+        )?;
+        writeln!(f, "cleaning:")?;
+        writeln!(f, "  welded vertices (merged away)      {:>9}", self.welded_vertices)?;
+        writeln!(f, "  unused vertices dropped            {:>9}", self.unused_vertices)?;
+        writeln!(
+            f,
+            "  zero-area polygons dropped         {:>9}",
+            self.zero_area_polygons_dropped
+        )?;
+        writeln!(
+            f,
+            "  duplicate polygons dropped         {:>9}",
+            self.duplicate_polygons_dropped
+        )?;
+        writeln!(f, "  two-sided pairs kept               {:>9}", self.two_sided_pairs)?;
+        writeln!(
+            f,
+            "  polygons triangulated              {:>9}  ({} non-planar, {} best-effort) -> {} triangles",
+            self.nonplanar_or_nonconvex_triangulated,
+            self.nonplanar_polygons,
+            self.triangulation_fallbacks,
+            self.triangles_from_triangulation
+        )?;
+        writeln!(f, "diagnostics (not repaired):")?;
+        writeln!(f, "  open edges                         {:>9}", self.open_edges)?;
+        writeln!(f, "  non-manifold edges                 {:>9}", self.non_manifold_edges)?;
+        writeln!(f, "  T-junctions                        {:>9}", self.t_junctions)?;
+        write!(
+            f,
+            "output:  {} vertices, {} polygons",
+            self.final_vertices, self.final_polygons
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn display_is_multiline_and_complete() {
+        let r = CleaningReport {
+            input_vertices: 8,
+            welded_vertices: 2,
+            t_junctions: 5,
+            ..Default::default()
+        };
+        let s = r.to_string();
+        assert!(s.lines().count() >= 10, "{s}");
+        assert!(s.contains("input:   8 vertices"));
+        assert!(
+            s.lines()
+                .any(|l| l.contains("T-junctions") && l.trim_end().ends_with('5'))
+        );
+    }
+}

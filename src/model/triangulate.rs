@@ -1,0 +1,562 @@
+//! Planarity and convexity tests, and in-plane triangulation of polygons that fail them.
+//!
+//! All decisions use the exact predicates; the only floating-point quantity is the Newell
+//! normal, used to choose the projection axis (any axis along which the plane is not seen
+//! edge-on works) and the polygon's orientation in that projection.
+
+use std::cmp::Ordering;
+
+use crate::predicates::{collinear, orient2d_proj, orient3d};
+
+/// What to do with a polygon.
+#[derive(Debug, PartialEq)]
+pub(crate) enum Shape {
+    /// Planar and convex (or a triangle): keep as it is.
+    Keep,
+    /// Replace by these triangles (vertex ids, same winding as the polygon).
+    Triangulated {
+        tris: Vec<[u32; 3]>,
+        nonplanar: bool,
+        /// The projection was not simple; the triangulation is best-effort.
+        fallback: bool,
+    },
+}
+
+/// The two coordinates kept when dropping axis `k`, in [`orient2d_proj`]'s order.
+fn proj_axes(k: usize) -> (usize, usize) {
+    match k {
+        0 => (1, 2),
+        1 => (2, 0),
+        _ => (0, 1),
+    }
+}
+
+/// Classifies polygon `poly` (vertex ids into `pts`). Precondition: at least 3 vertices, no two
+/// consecutive equal, not all collinear, and `normal` (its Newell normal) is not zero.
+pub(crate) fn classify(pts: &[[f64; 3]], poly: &[u32], normal: [f64; 3]) -> Shape {
+    let n = poly.len();
+    if n <= 3 {
+        return Shape::Keep;
+    }
+    let p = |i: usize| &pts[poly[i] as usize];
+    let a = p(0);
+    let b = p(1);
+    let Some(ci) = (2..n).find(|&i| !collinear(a, b, p(i))) else {
+        // Violated precondition (all collinear): nothing sensible to triangulate.
+        return Shape::Keep;
+    };
+    let c = p(ci);
+    let planar = (2..n).all(|i| orient3d(a, b, c, p(i)) == 0);
+
+    // Projection axis: the dominant axis of the normal; for a planar polygon make sure the
+    // plane is not seen edge-on along it (exactly).
+    let mut axes = [0usize, 1, 2];
+    axes.sort_by(|&i, &j| normal[j].abs().partial_cmp(&normal[i].abs()).unwrap_or(Ordering::Equal));
+    let k = if planar {
+        axes.into_iter()
+            .find(|&k| orient2d_proj(a, b, c, k) != 0)
+            .unwrap_or(axes[0])
+    } else {
+        axes[0]
+    };
+    let s = if normal[k] < 0.0 {
+        -1
+    } else if normal[k] > 0.0 {
+        1
+    } else {
+        // Only reachable for a planar polygon seen edge-on by the float normal; the exact
+        // orientation of the first non-collinear triple is as good a guess as any.
+        let o = orient2d_proj(a, b, c, k);
+        if o == 0 { 1 } else { o }
+    };
+
+    let has_repeat = {
+        let mut v = poly.to_vec();
+        v.sort_unstable();
+        v.windows(2).any(|w| w[0] == w[1])
+    };
+    if planar && !has_repeat && convex_2d(pts, poly, k, s) {
+        return Shape::Keep;
+    }
+
+    // A quad whose projection is strictly convex: split along the shorter diagonal.
+    if n == 4 && !has_repeat {
+        let turns_ok = (0..4).all(|i| orient2d_proj(p((i + 3) % 4), p(i), p((i + 1) % 4), k) * s > 0);
+        let winds_once = sign_changes(pts, poly, k) == 2;
+        if turns_ok && winds_once {
+            let d02 = dist2(p(0), p(2));
+            let d13 = dist2(p(1), p(3));
+            let tris = if d02 <= d13 {
+                vec![[poly[0], poly[1], poly[2]], [poly[0], poly[2], poly[3]]]
+            } else {
+                vec![[poly[1], poly[2], poly[3]], [poly[1], poly[3], poly[0]]]
+            };
+            return Shape::Triangulated {
+                tris,
+                nonplanar: !planar,
+                fallback: false,
+            };
+        }
+    }
+
+    let (tris, fallback) = ear_clip(pts, poly, k, s);
+    Shape::Triangulated {
+        tris,
+        nonplanar: !planar,
+        fallback,
+    }
+}
+
+fn dist2(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    (0..3).map(|i| (a[i] - b[i]) * (a[i] - b[i])).sum()
+}
+
+/// Number of sign changes (cyclic, zeros skipped) of the first projected coordinate along the
+/// polygon's edges. A polygon whose turns all have one sign winds once iff this is 2.
+fn sign_changes(pts: &[[f64; 3]], poly: &[u32], k: usize) -> usize {
+    let (u, _) = proj_axes(k);
+    let n = poly.len();
+    let signs: Vec<Ordering> = (0..n)
+        .map(|i| {
+            let a = pts[poly[i] as usize][u];
+            let b = pts[poly[(i + 1) % n] as usize][u];
+            b.partial_cmp(&a).unwrap_or(Ordering::Equal)
+        })
+        .filter(|o| *o != Ordering::Equal)
+        .collect();
+    (0..signs.len())
+        .filter(|&i| signs[i] != signs[(i + 1) % signs.len()])
+        .count()
+}
+
+/// True when the projected vertices `p, c, n` (collinear in the projection) go straight on at
+/// `c`: `c` lies strictly between `p` and `n`.
+fn goes_straight(p: &[f64; 3], c: &[f64; 3], n: &[f64; 3], k: usize) -> bool {
+    let (u, v) = proj_axes(k);
+    let d1 = (c[u].partial_cmp(&p[u]), c[v].partial_cmp(&p[v]));
+    let d2 = (n[u].partial_cmp(&c[u]), n[v].partial_cmp(&c[v]));
+    let moved = |d: (Option<Ordering>, Option<Ordering>)| d.0 != Some(Ordering::Equal) || d.1 != Some(Ordering::Equal);
+    moved(d1) && d1 == d2
+}
+
+/// Convex in the projection dropping axis `k` with orientation `s`: no reflex turn, no spike,
+/// winding once. Straight angles are allowed.
+fn convex_2d(pts: &[[f64; 3]], poly: &[u32], k: usize, s: i32) -> bool {
+    let n = poly.len();
+    let p = |i: usize| &pts[poly[i % n] as usize];
+    for i in 0..n {
+        let (a, b, c) = (p(i + n - 1), p(i), p(i + 1));
+        let t = orient2d_proj(a, b, c, k) * s;
+        if t < 0 || (t == 0 && !goes_straight(a, b, c, k)) {
+            return false;
+        }
+    }
+    sign_changes(pts, poly, k) == 2
+}
+
+/// Ear clipping of the projection dropping axis `k`, orientation `s`, with exact predicates.
+/// Returns the triangles and whether the best-effort fallback was needed (projection not
+/// simple). Triangles are never degenerate in the projection, so never degenerate in 3D.
+fn ear_clip(pts: &[[f64; 3]], poly: &[u32], k: usize, s: i32) -> (Vec<[u32; 3]>, bool) {
+    let n = poly.len();
+    let pos = |i: usize| &pts[poly[i] as usize];
+    let mut next: Vec<usize> = (0..n).map(|i| (i + 1) % n).collect();
+    let mut prev: Vec<usize> = (0..n).map(|i| (i + n - 1) % n).collect();
+    let turn_of = |prev: &[usize], next: &[usize], i: usize| orient2d_proj(pos(prev[i]), pos(i), pos(next[i]), k) * s;
+    let mut turn: Vec<i32> = (0..n).map(|i| turn_of(&prev, &next, i)).collect();
+    let mut tris = Vec::with_capacity(n - 2);
+    let mut fallback = false;
+    let mut m = n;
+    let mut cur = 0usize;
+
+    // Is some remaining vertex (other than the triangle's own) in triangle (a, b, c)?
+    // `closed` counts the triangle's boundary as inside.
+    let blocked = |next: &[usize], turn: &[i32], m: usize, a: usize, b: usize, c: usize, closed: bool| {
+        let (pa, pb, pc) = (pos(a), pos(b), pos(c));
+        let (va, vb, vc) = (poly[a], poly[b], poly[c]);
+        let mut q = next[c];
+        while q != a {
+            let vq = poly[q];
+            // In a simple polygon, only a non-convex vertex can be the first to enter an ear.
+            let candidate = m <= 64 || turn[q] <= 0;
+            if candidate && vq != va && vq != vb && vq != vc {
+                let pq = pos(q);
+                let o1 = orient2d_proj(pa, pb, pq, k) * s;
+                let o2 = orient2d_proj(pb, pc, pq, k) * s;
+                let o3 = orient2d_proj(pc, pa, pq, k) * s;
+                let inside = if closed {
+                    o1 >= 0 && o2 >= 0 && o3 >= 0
+                } else {
+                    o1 > 0 && o2 > 0 && o3 > 0
+                };
+                if inside {
+                    return true;
+                }
+            }
+            q = next[q];
+        }
+        false
+    };
+
+    let mut tried = 0usize;
+    while m > 3 {
+        let mut clip = None;
+        if tried < m {
+            let (a, c) = (prev[cur], next[cur]);
+            if turn[cur] > 0 && !blocked(&next, &turn, m, a, cur, c, true) {
+                clip = Some(cur);
+            } else {
+                cur = next[cur];
+                tried += 1;
+                continue;
+            }
+        }
+        let clip = match clip {
+            Some(i) => i,
+            None => {
+                // No proper ear in a whole cycle: the projection is not simple. Take the first
+                // convex vertex with an empty open triangle, else any convex vertex.
+                fallback = true;
+                let mut found = None;
+                for closed_pass in [false, true] {
+                    let mut i = cur;
+                    for _ in 0..m {
+                        if turn[i] > 0 && (closed_pass || !blocked(&next, &turn, m, prev[i], i, next[i], false)) {
+                            found = Some(i);
+                            break;
+                        }
+                        i = next[i];
+                    }
+                    if found.is_some() {
+                        break;
+                    }
+                }
+                match found {
+                    Some(i) => i,
+                    // Nothing left with positive area.
+                    None => return (tris, true),
+                }
+            }
+        };
+        let (a, c) = (prev[clip], next[clip]);
+        tris.push([poly[a], poly[clip], poly[c]]);
+        next[a] = c;
+        prev[c] = a;
+        m -= 1;
+        turn[a] = turn_of(&prev, &next, a);
+        turn[c] = turn_of(&prev, &next, c);
+        cur = c;
+        tried = 0;
+    }
+    let (a, c) = (prev[cur], next[cur]);
+    if turn_of(&prev, &next, cur) > 0 {
+        tris.push([poly[a], poly[cur], poly[c]]);
+    } else {
+        fallback = true;
+    }
+    (tris, fallback)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::newell;
+
+    fn run(pts: &[[f64; 3]], poly: &[u32]) -> Shape {
+        let nrm = newell(poly.iter().map(|&i| &pts[i as usize]));
+        classify(pts, poly, nrm)
+    }
+
+    fn area2(pts: &[[f64; 3]], t: &[u32; 3]) -> [f64; 3] {
+        newell(t.iter().map(|&i| &pts[i as usize]))
+    }
+
+    fn check_tris(pts: &[[f64; 3]], poly: &[u32], tris: &[[u32; 3]]) {
+        let pn = newell(poly.iter().map(|&i| &pts[i as usize]));
+        let mut sum = [0.0; 3];
+        for t in tris {
+            let a = area2(pts, t);
+            // Same winding as the polygon.
+            let dot: f64 = (0..3).map(|i| a[i] * pn[i]).sum();
+            assert!(dot > 0.0, "triangle {t:?} flipped");
+            for i in 0..3 {
+                sum[i] += a[i];
+            }
+        }
+        for i in 0..3 {
+            assert!((sum[i] - pn[i]).abs() < 1e-9, "area not preserved: {sum:?} vs {pn:?}");
+        }
+    }
+
+    #[test]
+    fn convex_planar_quad_kept() {
+        let pts = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]];
+        assert_eq!(run(&pts, &[0, 1, 2, 3]), Shape::Keep);
+        assert_eq!(run(&pts, &[3, 2, 1, 0]), Shape::Keep);
+    }
+
+    #[test]
+    fn convex_with_straight_angle_kept() {
+        // Square with an extra vertex in the middle of its bottom edge, tilted plane.
+        let pts = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 1.0],
+            [2.0, 0.0, 2.0],
+            [2.0, 2.0, 2.0],
+            [0.0, 2.0, 0.0],
+        ];
+        assert_eq!(run(&pts, &[0, 1, 2, 3, 4]), Shape::Keep);
+    }
+
+    #[test]
+    fn spike_is_not_convex() {
+        // 0 -> 1 -> 2 goes back along the same line.
+        let pts = [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0]];
+        match run(&pts, &[0, 1, 2, 3]) {
+            Shape::Triangulated { .. } => {}
+            s => panic!("{s:?}"),
+        }
+    }
+
+    #[test]
+    fn pentagram_is_not_convex() {
+        let star: Vec<[f64; 3]> = (0..5)
+            .map(|i| {
+                let a = (i as f64) * 4.0 * std::f64::consts::PI / 5.0;
+                [a.cos(), a.sin(), 0.0]
+            })
+            .collect();
+        let poly = [0, 1, 2, 3, 4];
+        match run(&star, &poly) {
+            Shape::Triangulated { fallback, .. } => assert!(fallback),
+            s => panic!("{s:?}"),
+        }
+    }
+
+    #[test]
+    fn l_shape_triangulated() {
+        // L-shape in the plane y = 1, CCW seen from -y.
+        let l2 = [[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [1.0, 1.0], [1.0, 2.0], [0.0, 2.0]];
+        let pts: Vec<[f64; 3]> = l2.iter().map(|p| [p[0], 1.0, p[1]]).collect();
+        let poly = [0u32, 1, 2, 3, 4, 5];
+        match run(&pts, &poly) {
+            Shape::Triangulated {
+                tris,
+                nonplanar,
+                fallback,
+            } => {
+                assert_eq!(tris.len(), 4);
+                assert!(!nonplanar && !fallback);
+                check_tris(&pts, &poly, &tris);
+            }
+            s => panic!("{s:?}"),
+        }
+    }
+
+    #[test]
+    fn comb_triangulated() {
+        // A comb with collinear vertices along its base, planar in z = 3.
+        let c2 = [
+            [0.0, 0.0],
+            [1.0, 0.0],
+            [2.0, 0.0],
+            [3.0, 0.0],
+            [4.0, 0.0],
+            [4.0, 3.0],
+            [3.0, 3.0],
+            [3.0, 1.0],
+            [2.0, 1.0],
+            [2.0, 3.0],
+            [1.0, 3.0],
+            [1.0, 1.0],
+            [0.5, 1.0],
+            [0.0, 3.0],
+        ];
+        let pts: Vec<[f64; 3]> = c2.iter().map(|p| [p[0], p[1], 3.0]).collect();
+        let poly: Vec<u32> = (0..pts.len() as u32).collect();
+        match run(&pts, &poly) {
+            Shape::Triangulated { tris, fallback, .. } => {
+                assert!(!fallback);
+                assert_eq!(tris.len(), pts.len() - 2);
+                check_tris(&pts, &poly, &tris);
+            }
+            s => panic!("{s:?}"),
+        }
+    }
+
+    #[test]
+    fn big_convex_fan_with_many_vertices() {
+        // 2000-gon: convex, kept; its reflex-free triangulation path is exercised by a
+        // copy with one vertex pushed inwards.
+        let n = 2000;
+        let mut pts: Vec<[f64; 3]> = (0..n)
+            .map(|i| {
+                let a = i as f64 * std::f64::consts::TAU / n as f64;
+                [a.cos(), a.sin(), 0.0]
+            })
+            .collect();
+        let poly: Vec<u32> = (0..n as u32).collect();
+        assert_eq!(run(&pts, &poly), Shape::Keep);
+        pts[7] = [0.5, 0.1, 0.0];
+        match run(&pts, &poly) {
+            Shape::Triangulated { tris, fallback, .. } => {
+                assert!(!fallback);
+                assert_eq!(tris.len(), n - 2);
+                check_tris(&pts, &poly, &tris);
+            }
+            s => panic!("{s:?}"),
+        }
+    }
+
+    #[test]
+    fn nonplanar_quad_split_along_shorter_diagonal() {
+        let pts = [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [2.0, 1.0, 0.5], [0.0, 1.0, 0.0]];
+        match run(&pts, &[0, 1, 2, 3]) {
+            Shape::Triangulated {
+                tris,
+                nonplanar,
+                fallback,
+            } => {
+                assert!(nonplanar && !fallback);
+                // |0-2|^2 = 5.25, |1-3|^2 = 5: split along 1-3.
+                assert_eq!(tris, vec![[1, 2, 3], [1, 3, 0]]);
+            }
+            s => panic!("{s:?}"),
+        }
+    }
+
+    #[test]
+    fn nonconvex_quad_uses_inner_diagonal() {
+        // Dart: vertex 3 is reflex, so only diagonal 1-3 is inside.
+        let pts = [[0.0, 0.0, 0.0], [2.0, 1.0, 0.0], [0.0, 2.0, 0.0], [0.5, 1.0, 0.0]];
+        match run(&pts, &[0, 1, 2, 3]) {
+            Shape::Triangulated { tris, .. } => {
+                assert_eq!(tris.len(), 2);
+                check_tris(&pts, &[0, 1, 2, 3], &tris);
+                for t in &tris {
+                    assert!(t.contains(&1) && t.contains(&3), "{tris:?}");
+                }
+            }
+            s => panic!("{s:?}"),
+        }
+    }
+
+    #[test]
+    fn polygon_touching_itself_is_triangulated() {
+        // Two squares sharing vertex 0 (figure eight with one touching point).
+        let pts = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [-1.0, 0.0, 0.0],
+            [-1.0, -1.0, 0.0],
+            [0.0, -1.0, 0.0],
+        ];
+        let poly = [0u32, 1, 2, 3, 0, 4, 5, 6];
+        // Newell of this is 2 * (1 + 1) in z; classify must not keep it.
+        match run(&pts, &poly) {
+            Shape::Triangulated { tris, .. } => check_tris(&pts, &poly, &tris),
+            s => panic!("{s:?}"),
+        }
+    }
+
+    /// Deterministic pseudo-random numbers in [0, 1).
+    struct Lcg(u64);
+    impl Lcg {
+        fn next(&mut self) -> f64 {
+            self.0 = self
+                .0
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (self.0 >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    #[test]
+    fn random_star_polygons_in_tilted_planes() {
+        let mut rng = Lcg(42);
+        let mut triangulated = 0;
+        for case in 0..300 {
+            let n = 4 + (rng.next() * 40.0) as usize;
+            // Star-shaped (hence simple) around the origin: increasing angles, random radii.
+            let mut angles: Vec<f64> = (0..n).map(|_| rng.next() * std::f64::consts::TAU).collect();
+            angles.sort_by(|a, b| a.partial_cmp(b).unwrap());
+            angles.dedup_by(|a, b| (*a - *b).abs() < 1e-3);
+            // Star-shaped around the origin only if every angular gap is below pi.
+            let wrap = angles[0] + std::f64::consts::TAU - angles[angles.len() - 1];
+            let max_gap = angles.windows(2).map(|w| w[1] - w[0]).fold(wrap, f64::max);
+            if angles.len() < 4 || wrap < 1e-3 || max_gap > 3.0 {
+                continue;
+            }
+            let (u, v) = (
+                [rng.next() - 0.5, rng.next() - 0.5, rng.next() - 0.5],
+                [rng.next() - 0.5, rng.next() - 0.5, rng.next() - 0.5],
+            );
+            let pts: Vec<[f64; 3]> = angles
+                .iter()
+                .map(|&a| {
+                    let r = 0.2 + rng.next();
+                    let (x, y) = (r * a.cos(), r * a.sin());
+                    std::array::from_fn(|k| 10.0 + x * u[k] + y * v[k])
+                })
+                .collect();
+            let poly: Vec<u32> = (0..pts.len() as u32).collect();
+            match run(&pts, &poly) {
+                Shape::Keep => {}
+                Shape::Triangulated { tris, fallback, .. } => {
+                    triangulated += 1;
+                    assert!(!fallback, "case {case}");
+                    assert_eq!(tris.len(), pts.len() - 2, "case {case}");
+                    let pn = newell(poly.iter().map(|&i| &pts[i as usize]));
+                    let mut sum = [0.0; 3];
+                    for t in &tris {
+                        let a = area2(&pts, t);
+                        for i in 0..3 {
+                            sum[i] += a[i];
+                        }
+                    }
+                    for i in 0..3 {
+                        assert!((sum[i] - pn[i]).abs() < 1e-9, "case {case}: {sum:?} vs {pn:?}");
+                    }
+                }
+            }
+        }
+        assert!(triangulated > 100, "only {triangulated} cases triangulated");
+    }
+
+    #[test]
+    fn random_self_intersecting_polygons_do_not_panic() {
+        let mut rng = Lcg(7);
+        for _ in 0..300 {
+            let n = 4 + (rng.next() * 30.0) as usize;
+            let flat = rng.next() < 0.5;
+            let pts: Vec<[f64; 3]> = (0..n)
+                .map(|_| {
+                    // Coarse coordinates make exact degeneracies (collinear, coincident) likely.
+                    let q = |x: f64| (x * 4.0).floor();
+                    [q(rng.next()), q(rng.next()), if flat { 0.0 } else { q(rng.next()) }]
+                })
+                .collect();
+            let mut poly: Vec<u32> = (0..n as u32).collect();
+            // Identify coincident points as the same vertex, like welding would.
+            for i in 0..n {
+                if let Some(j) = (0..i).find(|&j| pts[j] == pts[i]) {
+                    poly[i] = j as u32;
+                }
+            }
+            poly.dedup();
+            while poly.len() > 1 && poly.first() == poly.last() {
+                poly.pop();
+            }
+            let vs: Vec<[f64; 3]> = poly.iter().map(|&i| pts[i as usize]).collect();
+            let nrm = newell(vs.iter());
+            if poly.len() < 4 || nrm == [0.0; 3] || vs.iter().all(|p| collinear(&vs[0], &vs[1], p)) {
+                continue;
+            }
+            if let Shape::Triangulated { tris, .. } = classify(&pts, &poly, nrm) {
+                assert!(tris.len() <= poly.len() - 2);
+            }
+        }
+    }
+}
