@@ -120,7 +120,15 @@ pub fn run_one(kind: &str, n: usize, validate: bool) -> Option<Row> {
     let seconds = t0.elapsed().as_secs_f64();
     let peak_mb = peak_rss_mb().unwrap_or(f64::NAN);
     Some(match built {
-        Err(e) => Row { kind: kind.into(), points: pts.len(), seconds, peak_mb, tets: 0, flat: 0, validate: e.to_string() },
+        Err(e) => Row {
+            kind: kind.into(),
+            points: pts.len(),
+            seconds,
+            peak_mb,
+            tets: 0,
+            flat: 0,
+            validate: e.to_string(),
+        },
         Ok(t) => {
             let flat = t
                 .tets()
@@ -137,14 +145,24 @@ pub fn run_one(kind: &str, n: usize, validate: bool) -> Option<Row> {
             } else {
                 "skipped".to_string()
             };
-            Row { kind: kind.into(), points: pts.len(), seconds, peak_mb, tets: t.num_tets(), flat, validate }
+            Row {
+                kind: kind.into(),
+                points: pts.len(),
+                seconds,
+                peak_mb,
+                tets: t.num_tets(),
+                flat,
+                validate,
+            }
         }
     })
 }
 
 /// Formats rows as a Markdown table.
 pub fn table(rows: &[Row]) -> String {
-    let mut s = String::from("| input | points | time (s) | peak RSS (MB) | tetrahedra | flat | validate |\n|---|---:|---:|---:|---:|---:|---|\n");
+    let mut s = String::from(
+        "| input | points | time (s) | peak RSS (MB) | tetrahedra | flat | validate |\n|---|---:|---:|---:|---:|---:|---|\n",
+    );
     for r in rows {
         s += &format!(
             "| {} | {} | {:.3} | {:.0} | {} | {} | {} |\n",

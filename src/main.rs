@@ -60,10 +60,7 @@ enum BenchCmd {
     },
     /// Run one case in this process and print it as JSON (used by `bench delaunay`).
     #[command(hide = true)]
-    One {
-        kind: String,
-        n: usize,
-    },
+    One { kind: String, n: usize },
 }
 
 fn main() -> Result<()> {
@@ -96,8 +93,16 @@ fn info(path: &std::path::Path) -> Result<()> {
     println!("vertices     {}", m.vertices.len());
     println!("polygons     {}", m.polygons.len());
     println!("triangles    {}", m.triangle_count());
-    println!("bbox         [{:.4}, {:.4}, {:.4}] .. [{:.4}, {:.4}, {:.4}]", lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]);
-    println!("weld dist    {:.3e} (relative {:.0e} of the bbox diagonal {:.4})", m.tolerances.weld_abs(), m.tolerances.weld, m.tolerances.scale);
+    println!(
+        "bbox         [{:.4}, {:.4}, {:.4}] .. [{:.4}, {:.4}, {:.4}]",
+        lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]
+    );
+    println!(
+        "weld dist    {:.3e} (relative {:.0e} of the bbox diagonal {:.4})",
+        m.tolerances.weld_abs(),
+        m.tolerances.weld,
+        m.tolerances.scale
+    );
     println!("\ncleaning report\n{}", m.report);
     Ok(())
 }
@@ -105,7 +110,8 @@ fn info(path: &std::path::Path) -> Result<()> {
 fn tetra(path: &std::path::Path, validate: bool) -> Result<()> {
     let m = load(path)?;
     let t0 = Instant::now();
-    let t = Tetrahedralization::build(&m.vertices).with_context(|| format!("cannot tetrahedralize {}", path.display()))?;
+    let t =
+        Tetrahedralization::build(&m.vertices).with_context(|| format!("cannot tetrahedralize {}", path.display()))?;
     let build = t0.elapsed().as_secs_f64();
     println!("vertices     {}", t.num_vertices());
     println!("tetrahedra   {}", t.num_tets());
@@ -149,7 +155,8 @@ fn bench_delaunay(sizes: &[usize], kinds: &[String], json: Option<PathBuf>) -> R
     }
     print!("{}", bench::table(&rows));
     if let Some(p) = json {
-        std::fs::write(&p, serde_json::to_string_pretty(&rows)?).with_context(|| format!("cannot write {}", p.display()))?;
+        std::fs::write(&p, serde_json::to_string_pretty(&rows)?)
+            .with_context(|| format!("cannot write {}", p.display()))?;
     }
     Ok(())
 }

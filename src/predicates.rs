@@ -28,7 +28,11 @@ pub type P3 = [f64; 3];
 
 #[inline(always)]
 fn c(p: &P3) -> Coord3D<f64> {
-    Coord3D { x: p[0], y: p[1], z: p[2] }
+    Coord3D {
+        x: p[0],
+        y: p[1],
+        z: p[2],
+    }
 }
 
 /// Exact sign of `det[b-a, c-a, d-a]`: positive when `d` is above the counter-clockwise
@@ -138,11 +142,21 @@ fn insphere_filter(a: &P3, b: &P3, c_: &P3, d: &P3, e: &P3) -> Option<i32> {
     let dlift = dex * dex + dey * dey + dez * dez;
     let det = (dlift * abc - clift * dab) + (blift * cda - alift * bcd);
     let (az, bz, cz, dz) = (aez.abs(), bez.abs(), cez.abs(), dez.abs());
-    let perm = ((cexdey.abs() + dexcey.abs()) * bz + (dexbey.abs() + bexdey.abs()) * cz + (bexcey.abs() + cexbey.abs()) * dz)
-        * alift
-        + ((dexaey.abs() + aexdey.abs()) * cz + (aexcey.abs() + cexaey.abs()) * dz + (cexdey.abs() + dexcey.abs()) * az) * blift
-        + ((aexbey.abs() + bexaey.abs()) * dz + (bexdey.abs() + dexbey.abs()) * az + (dexaey.abs() + aexdey.abs()) * bz) * clift
-        + ((bexcey.abs() + cexbey.abs()) * az + (cexaey.abs() + aexcey.abs()) * bz + (aexbey.abs() + bexaey.abs()) * cz) * dlift;
+    let perm =
+        ((cexdey.abs() + dexcey.abs()) * bz + (dexbey.abs() + bexdey.abs()) * cz + (bexcey.abs() + cexbey.abs()) * dz)
+            * alift
+            + ((dexaey.abs() + aexdey.abs()) * cz
+                + (aexcey.abs() + cexaey.abs()) * dz
+                + (cexdey.abs() + dexcey.abs()) * az)
+                * blift
+            + ((aexbey.abs() + bexaey.abs()) * dz
+                + (bexdey.abs() + dexbey.abs()) * az
+                + (dexaey.abs() + aexdey.abs()) * bz)
+                * clift
+            + ((bexcey.abs() + cexbey.abs()) * az
+                + (cexaey.abs() + aexcey.abs()) * bz
+                + (aexbey.abs() + bexaey.abs()) * cz)
+                * dlift;
     let bound = ISP_BOUND * perm;
     if det > bound {
         Some(1)
@@ -172,10 +186,11 @@ mod lattice {
         let mut r = [0i64; 3];
         for k in 0..3 {
             let s = p[k] * SCALE;
-            if s.abs() > LIMIT || s.fract() != 0.0 {
+            let i = s as i64; // saturating; NaN -> 0
+            if s.abs() > LIMIT || i as f64 != s {
                 return None;
             }
-            r[k] = s as i64;
+            r[k] = i;
         }
         Some(r)
     }
@@ -188,15 +203,39 @@ mod lattice {
     pub fn orient3d(a: &P3, b: &P3, c: &P3, d: &P3) -> Option<i32> {
         let (a, b, c, d) = (to_int(a)?, to_int(b)?, to_int(c)?, to_int(d)?);
         let (u, v, w) = (sub(b, a), sub(c, a), sub(d, a));
-        let det = u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) + u[2] * (v[0] * w[1] - v[1] * w[0]);
+        let det = u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0])
+            + u[2] * (v[0] * w[1] - v[1] * w[0]);
         Some(det.signum() as i32)
     }
 
     /// Shewchuk's insphere convention (positive inside for his positive orientation).
     pub fn insphere(a: &P3, b: &P3, c: &P3, d: &P3, e: &P3) -> Option<i32> {
         let e = to_int(e)?;
-        let (a, b, c) = (sub(to_int(a)?, e), sub(to_int(b)?, e), sub(to_int(c)?, e));
-        let d = sub(to_int(d)?, e);
+        let d3 = |p: &P3| -> Option<[i64; 3]> {
+            let q = to_int(p)?;
+            Some([q[0] - e[0], q[1] - e[1], q[2] - e[2]])
+        };
+        let (a, b, c, d) = (d3(a)?, d3(b)?, d3(c)?, d3(d)?);
+        let m = [a, b, c, d].iter().flatten().map(|x| x.abs()).max().unwrap_or(0);
+        // Differences below 2^10: every term fits in i64 (|det| < 2^57). Otherwise i128.
+        Some(if m < 1 << 10 {
+            det::<i64>(a, b, c, d)
+        } else {
+            det::<i128>(a, b, c, d)
+        })
+    }
+
+    fn det<T>(a: [i64; 3], b: [i64; 3], c: [i64; 3], d: [i64; 3]) -> i32
+    where
+        T: From<i64>
+            + Copy
+            + Ord
+            + Default
+            + std::ops::Mul<Output = T>
+            + std::ops::Sub<Output = T>
+            + std::ops::Add<Output = T>,
+    {
+        let [a, b, c, d] = [a, b, c, d].map(|p| p.map(T::from));
         let ab = a[0] * b[1] - b[0] * a[1];
         let bc = b[0] * c[1] - c[0] * b[1];
         let cd = c[0] * d[1] - d[0] * c[1];
@@ -207,9 +246,10 @@ mod lattice {
         let bcd = b[2] * cd - c[2] * bd + d[2] * bc;
         let cda = c[2] * da + d[2] * ac + a[2] * cd;
         let dab = d[2] * ab + a[2] * bd + b[2] * da;
-        let lift = |p: [i128; 3]| p[0] * p[0] + p[1] * p[1] + p[2] * p[2];
+        let lift = |p: [T; 3]| p[0] * p[0] + p[1] * p[1] + p[2] * p[2];
         let det = (lift(d) * abc - lift(c) * dab) + (lift(b) * cda - lift(a) * bcd);
-        Some(det.signum() as i32)
+        let zero = T::default();
+        (det > zero) as i32 - (det < zero) as i32
     }
 }
 

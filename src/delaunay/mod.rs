@@ -99,8 +99,8 @@ pub struct Tetrahedralization {
 struct Builder<'a> {
     pts: &'a [P3],
     rank: &'a [u32],
-    tets: Vec<[u32; 4]>,
-    adj: Vec<[u32; 4]>,
+    /// Vertices and neighbours side by side: one cache line fetch per tetrahedron visited.
+    t: Vec<TetSlot>,
     mark: Vec<u32>,
     epoch: u32,
     free: Vec<u32>,
@@ -132,7 +132,11 @@ impl Tetrahedralization {
         if n >= DEAD as usize {
             return Err(DelaunayError::TooMany(n));
         }
-        if let Some((index, p)) = points.iter().enumerate().find(|(_, p)| p.iter().any(|c| !c.is_finite())) {
+        if let Some((index, p)) = points
+            .iter()
+            .enumerate()
+            .find(|(_, p)| p.iter().any(|c| !c.is_finite()))
+        {
             return Err(DelaunayError::NonFinite { index, point: *p });
         }
         // Lexicographic order gives the perturbation ranks and finds exact duplicates.
@@ -159,7 +163,11 @@ impl Tetrahedralization {
         }
         drop(order);
         let distinct = unique.len();
-        let stats = BuildStats { input_points: n, duplicates: n - distinct, ..Default::default() };
+        let stats = BuildStats {
+            input_points: n,
+            duplicates: n - distinct,
+            ..Default::default()
+        };
         if distinct < 4 {
             return Err(DelaunayError::TooFewPoints { distinct });
         }
@@ -175,7 +183,15 @@ impl Tetrahedralization {
         let (tets, adj, n_finite) = b.compact();
         let stats = std::mem::take(&mut b.stats);
         drop(b);
-        Ok(Tetrahedralization { points: points.to_vec(), representative, rank, tets, adj, n_finite, stats })
+        Ok(Tetrahedralization {
+            points: points.to_vec(),
+            representative,
+            rank,
+            tets,
+            adj,
+            n_finite,
+            stats,
+        })
     }
 
     /// The input points, indexed by [`VertexId`] (vertex ids are input indices).
@@ -213,7 +229,10 @@ impl Tetrahedralization {
     }
     /// All finite tetrahedra.
     pub fn tets(&self) -> impl Iterator<Item = (TetId, [VertexId; 4])> + '_ {
-        self.tets[..self.n_finite].iter().enumerate().map(|(i, v)| (TetId(i as u32), v.map(VertexId)))
+        self.tets[..self.n_finite]
+            .iter()
+            .enumerate()
+            .map(|(i, v)| (TetId(i as u32), v.map(VertexId)))
     }
     /// The finite tetrahedron across face `face` (opposite vertex slot `face`) of `t`, and
     /// the index of the shared face in it; `None` on the convex hull.
@@ -244,11 +263,16 @@ impl Tetrahedralization {
         let u = sub(&b, &a);
         let v = sub(&c, &a);
         let w = sub(&d, &a);
-        (u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) + u[2] * (v[0] * w[1] - v[1] * w[0])) / 6.0
+        (u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) + u[2] * (v[0] * w[1] - v[1] * w[0]))
+            / 6.0
     }
     /// Bytes held by this structure's arrays (excluding the allocator's overhead).
     pub fn heap_bytes(&self) -> usize {
-        self.points.capacity() * 24 + self.representative.capacity() * 4 + self.rank.capacity() * 4 + self.tets.capacity() * 16 + self.adj.capacity() * 16
+        self.points.capacity() * 24
+            + self.representative.capacity() * 4
+            + self.rank.capacity() * 4
+            + self.tets.capacity() * 16
+            + self.adj.capacity() * 16
     }
 }
 
@@ -263,8 +287,7 @@ impl<'a> Builder<'a> {
         Builder {
             pts,
             rank,
-            tets: Vec::with_capacity(cap),
-            adj: Vec::with_capacity(cap),
+            t: Vec::with_capacity(cap),
             mark: Vec::with_capacity(cap),
             epoch: 0,
             free: Vec::new(),
@@ -296,39 +319,45 @@ impl<'a> Builder<'a> {
         let (a, b) = (self.p(ins[i0]), self.p(ins[i1]));
         let i2 = (2..ins.len())
             .find(|&k| !crate::predicates::collinear(a, b, self.p(ins[k])))
-            .ok_or(DelaunayError::Degenerate { distinct, what: "collinear" })?;
+            .ok_or(DelaunayError::Degenerate {
+                distinct,
+                what: "collinear",
+            })?;
         let c = self.p(ins[i2]);
         let (i3, o) = (2..ins.len())
             .filter(|&k| k != i2)
             .map(|k| (k, orient3d(a, b, c, self.p(ins[k]))))
             .find(|&(_, o)| o != 0)
-            .ok_or(DelaunayError::Degenerate { distinct, what: "coplanar" })?;
+            .ok_or(DelaunayError::Degenerate {
+                distinct,
+                what: "coplanar",
+            })?;
         let mut v = [ins[i0], ins[i1], ins[i2], ins[i3]];
         if o < 0 {
             v.swap(0, 1);
         }
         // Finite tetrahedron 0 and one infinite tetrahedron per face.
-        self.tets.push(v);
+        let slot = |v| TetSlot { v, n: [u32::MAX; 4] };
+        self.t.push(slot(v));
         for f in FACE_SLOTS {
-            self.tets.push([v[f[0]], v[f[1]], v[f[2]], INFINITE]);
+            self.t.push(slot([v[f[0]], v[f[1]], v[f[2]], INFINITE]));
         }
-        self.adj = vec![[u32::MAX; 4]; 5];
         self.mark = vec![0; 5];
         // Pair faces by their vertex sets (only five tetrahedra: quadratic is fine).
         for t in 0..5 {
             for i in 0..4 {
-                if self.adj[t][i] != u32::MAX {
+                if self.t[t].n[i] != u32::MAX {
                     continue;
                 }
-                let key = face_key(&self.tets[t], i);
+                let key = face_key(&self.t[t].v, i);
                 'search: for u in 0..5 {
                     if u == t {
                         continue;
                     }
                     for j in 0..4 {
-                        if face_key(&self.tets[u], j) == key {
-                            self.adj[t][i] = (u * 4 + j) as u32;
-                            self.adj[u][j] = (t * 4 + i) as u32;
+                        if face_key(&self.t[u].v, j) == key {
+                            self.t[t].n[i] = (u * 4 + j) as u32;
+                            self.t[u].n[j] = (t * 4 + i) as u32;
                             break 'search;
                         }
                     }
@@ -363,14 +392,14 @@ impl<'a> Builder<'a> {
     /// for an infinite tetrahedron, strictly outside its hull face, or on the face's plane
     /// inside its circumcircle — decided as for the finite neighbour, so both agree).
     fn in_conflict(&self, t: u32, p: u32) -> bool {
-        let v = &self.tets[t as usize];
+        let v = &self.t[t as usize].v;
         if let Some(k) = v.iter().position(|&x| x == INFINITE) {
             let o = self.orient_with(v, k, self.p(p));
             if o != 0 {
                 return o > 0;
             }
-            let n = self.adj[t as usize][k] >> 2;
-            self.insphere_finite(&self.tets[n as usize], p) > 0
+            let n = self.t[t as usize].n[k] >> 2;
+            self.insphere_finite(&self.t[n as usize].v, p) > 0
         } else {
             self.insphere_finite(v, p) > 0
         }
@@ -383,7 +412,7 @@ impl<'a> Builder<'a> {
         let mut t = self.last;
         let mut prev = u32::MAX;
         loop {
-            let v = self.tets[t as usize];
+            let v = self.t[t as usize].v;
             if v.contains(&INFINITE) {
                 return t;
             }
@@ -391,7 +420,7 @@ impl<'a> Builder<'a> {
             let mut next = None;
             for j in 0..4 {
                 let i = (r + j) & 3;
-                let n = self.adj[t as usize][i] >> 2;
+                let n = self.t[t as usize].n[i] >> 2;
                 if n == prev {
                     continue;
                 }
@@ -413,13 +442,12 @@ impl<'a> Builder<'a> {
 
     fn new_tet(&mut self, v: [u32; 4]) -> u32 {
         if let Some(t) = self.free.pop() {
-            self.tets[t as usize] = v;
+            self.t[t as usize].v = v;
             t
         } else {
-            self.tets.push(v);
-            self.adj.push([u32::MAX; 4]);
+            self.t.push(TetSlot { v, n: [u32::MAX; 4] });
             self.mark.push(0);
-            (self.tets.len() - 1) as u32
+            (self.t.len() - 1) as u32
         }
     }
 
@@ -434,12 +462,12 @@ impl<'a> Builder<'a> {
         self.stack.push(t0);
         self.mark[t0 as usize] = no;
         while let Some(t) = self.stack.pop() {
-            let v = self.tets[t as usize];
+            let v = self.t[t as usize].v;
             if v.contains(&INFINITE) {
                 continue;
             }
             for i in 0..4 {
-                let n = self.adj[t as usize][i] >> 2;
+                let n = self.t[t as usize].n[i] >> 2;
                 if self.mark[n as usize] == no || self.orient_with(&v, i, q) != 0 {
                     continue;
                 }
@@ -471,7 +499,7 @@ impl<'a> Builder<'a> {
         while let Some(t) = self.stack.pop() {
             self.cavity.push(t);
             for i in 0..4 {
-                let n = self.adj[t as usize][i] >> 2;
+                let n = self.t[t as usize].n[i] >> 2;
                 let m = self.mark[n as usize];
                 if m == yes {
                     continue;
@@ -494,20 +522,20 @@ impl<'a> Builder<'a> {
         let mut staged = std::mem::take(&mut self.staged);
         staged.clear();
         for &(t, i) in &self.boundary {
-            let mut v = self.tets[t as usize];
+            let mut v = self.t[t as usize].v;
             v[i as usize] = p;
-            staged.push((v, self.adj[t as usize][i as usize]));
+            staged.push((v, self.t[t as usize].n[i as usize]));
         }
         for &t in &self.cavity {
-            self.tets[t as usize] = [DEAD; 4];
+            self.t[t as usize].v = [DEAD; 4];
             self.free.push(t);
         }
         for k in 0..nb {
             let (v, o) = staged[k];
             let i = self.boundary[k].1 as usize;
             let u = self.new_tet(v);
-            self.adj[u as usize][i] = o;
-            self.adj[(o >> 2) as usize][(o & 3) as usize] = u * 4 + i as u32;
+            self.t[u as usize].n[i] = o;
+            self.t[(o >> 2) as usize].n[(o & 3) as usize] = u * 4 + i as u32;
             self.mark[u as usize] = 0;
             if created_finite == u32::MAX && !v.contains(&INFINITE) {
                 created_finite = u;
@@ -555,32 +583,37 @@ impl<'a> Builder<'a> {
         }
         for &(a, b, f) in &self.links {
             let n = self.pts.len();
-            let (la, lb) = (self.local[(a as usize).min(n)].1 as usize, self.local[(b as usize).min(n)].1 as usize);
+            let (la, lb) = (
+                self.local[(a as usize).min(n)].1 as usize,
+                self.local[(b as usize).min(n)].1 as usize,
+            );
             let slot = la.min(lb) * k + la.max(lb);
             let g = self.table[slot];
             if g == u32::MAX {
                 self.table[slot] = f;
             } else {
                 self.table[slot] = u32::MAX;
-                self.adj[(f >> 2) as usize][(f & 3) as usize] = g;
-                self.adj[(g >> 2) as usize][(g & 3) as usize] = f;
+                self.t[(f >> 2) as usize].n[(f & 3) as usize] = g;
+                self.t[(g >> 2) as usize].n[(g & 3) as usize] = f;
             }
         }
     }
 
     /// Renumbers so finite tetrahedra come first and drops dead slots.
     fn compact(&mut self) -> (Vec<[u32; 4]>, Vec<[u32; 4]>, usize) {
-        let n = self.tets.len();
+        let n = self.t.len();
         let mut map = vec![u32::MAX; n];
         let mut next = 0u32;
-        for (t, v) in self.tets.iter().enumerate() {
+        for (t, s) in self.t.iter().enumerate() {
+            let v = &s.v;
             if v[0] != DEAD && !v.contains(&INFINITE) {
                 map[t] = next;
                 next += 1;
             }
         }
         let n_finite = next as usize;
-        for (t, v) in self.tets.iter().enumerate() {
+        for (t, s) in self.t.iter().enumerate() {
+            let v = &s.v;
             if v[0] != DEAD && v.contains(&INFINITE) {
                 map[t] = next;
                 next += 1;
@@ -594,14 +627,20 @@ impl<'a> Builder<'a> {
             if m == u32::MAX {
                 continue;
             }
-            tets[m as usize] = self.tets[t];
-            adj[m as usize] = self.adj[t].map(|a| map[(a >> 2) as usize] * 4 + (a & 3));
+            tets[m as usize] = self.t[t].v;
+            adj[m as usize] = self.t[t].n.map(|a| map[(a >> 2) as usize] * 4 + (a & 3));
         }
-        self.tets = Vec::new();
-        self.adj = Vec::new();
+        self.t = Vec::new();
         self.mark = Vec::new();
         (tets, adj, n_finite)
     }
+}
+
+#[derive(Clone, Copy)]
+#[repr(C, align(32))]
+struct TetSlot {
+    v: [u32; 4],
+    n: [u32; 4],
 }
 
 fn face_key(v: &[u32; 4], i: usize) -> [u32; 3] {

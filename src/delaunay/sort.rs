@@ -90,7 +90,11 @@ pub fn brio_hilbert(points: &[P3], mut ids: Vec<u32>, seed: u64) -> Vec<u32> {
     }
     // One scale for all axes keeps the curve's cells cubic.
     let ext = (0..3).map(|a| hi[a] - lo[a]).fold(0.0f64, f64::max);
-    let s = if ext > 0.0 { ((1u64 << BITS) - 1) as f64 / ext } else { 0.0 };
+    let s = if ext > 0.0 {
+        ((1u64 << BITS) - 1) as f64 / ext
+    } else {
+        0.0
+    };
     let key = |i: u32| {
         let p = points[i as usize];
         let q = |a: usize| (((p[a] - lo[a]) * s) as u32).min((1 << BITS) - 1);

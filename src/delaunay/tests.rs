@@ -34,7 +34,9 @@ fn grid(k: usize) -> Vec<P3> {
 
 fn random(n: usize, seed: u64) -> Vec<P3> {
     let mut r = SplitMix64(seed);
-    (0..n).map(|_| [0; 3].map(|_| (r.next_u64() >> 11) as f64 / (1u64 << 53) as f64)).collect()
+    (0..n)
+        .map(|_| [0; 3].map(|_| (r.next_u64() >> 11) as f64 / (1u64 << 53) as f64))
+        .collect()
 }
 
 fn brute_force_empty_spheres(t: &Tetrahedralization) {
@@ -42,7 +44,10 @@ fn brute_force_empty_spheres(t: &Tetrahedralization) {
     for (_, v) in t.tets() {
         let [a, b, c, d] = v.map(|x| &p[x.idx()]);
         for q in p {
-            assert!(insphere(a, b, c, d, q) <= 0, "a point is strictly inside a circumsphere");
+            assert!(
+                insphere(a, b, c, d, q) <= 0,
+                "a point is strictly inside a circumsphere"
+            );
         }
     }
 }
@@ -93,7 +98,14 @@ fn regular_grid_has_no_flat_tets_and_is_order_independent() {
 fn points_on_a_sphere() {
     // Octahedron and cube vertices on the same sphere (radius sqrt 3), plus the centre.
     let s = 3f64.sqrt();
-    let mut pts: Vec<P3> = vec![[s, 0.0, 0.0], [-s, 0.0, 0.0], [0.0, s, 0.0], [0.0, -s, 0.0], [0.0, 0.0, s], [0.0, 0.0, -s]];
+    let mut pts: Vec<P3> = vec![
+        [s, 0.0, 0.0],
+        [-s, 0.0, 0.0],
+        [0.0, s, 0.0],
+        [0.0, -s, 0.0],
+        [0.0, 0.0, s],
+        [0.0, 0.0, -s],
+    ];
     for i in 0..8 {
         pts.push([0, 1, 2].map(|a| if i >> a & 1 == 1 { 1.0 } else { -1.0 }));
     }
@@ -133,15 +145,30 @@ fn duplicates_are_merged() {
 
 #[test]
 fn errors_on_degenerate_input() {
-    assert_eq!(Tetrahedralization::build(&[]).unwrap_err(), DelaunayError::TooFewPoints { distinct: 0 });
+    assert_eq!(
+        Tetrahedralization::build(&[]).unwrap_err(),
+        DelaunayError::TooFewPoints { distinct: 0 }
+    );
     let same = vec![[1.0, 2.0, 3.0]; 10];
-    assert_eq!(Tetrahedralization::build(&same).unwrap_err(), DelaunayError::TooFewPoints { distinct: 1 });
+    assert_eq!(
+        Tetrahedralization::build(&same).unwrap_err(),
+        DelaunayError::TooFewPoints { distinct: 1 }
+    );
     let line: Vec<P3> = (0..10).map(|i| [i as f64, 2.0 * i as f64, 0.0]).collect();
-    assert!(matches!(Tetrahedralization::build(&line), Err(DelaunayError::Degenerate { what: "collinear", .. })));
+    assert!(matches!(
+        Tetrahedralization::build(&line),
+        Err(DelaunayError::Degenerate { what: "collinear", .. })
+    ));
     let plane: Vec<P3> = (0..20).map(|i| [(i % 5) as f64, (i / 5) as f64, 7.0]).collect();
-    assert!(matches!(Tetrahedralization::build(&plane), Err(DelaunayError::Degenerate { what: "coplanar", .. })));
+    assert!(matches!(
+        Tetrahedralization::build(&plane),
+        Err(DelaunayError::Degenerate { what: "coplanar", .. })
+    ));
     let nan = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, f64::NAN, 0.0], [0.0, 0.0, 1.0]];
-    assert!(matches!(Tetrahedralization::build(&nan), Err(DelaunayError::NonFinite { index: 2, .. })));
+    assert!(matches!(
+        Tetrahedralization::build(&nan),
+        Err(DelaunayError::NonFinite { index: 2, .. })
+    ));
 }
 
 #[test]

@@ -96,13 +96,21 @@ impl Tetrahedralization {
     /// - every distinct input point is a vertex.
     pub fn validate(&self) -> Result<ValidationReport, ValidationError> {
         let nf = self.n_finite;
-        let mut rep = ValidationReport { tets: nf, hull_faces: self.tets.len() - nf, ..Default::default() };
+        let mut rep = ValidationReport {
+            tets: nf,
+            hull_faces: self.tets.len() - nf,
+            ..Default::default()
+        };
         let p = |v: u32| &self.points[v as usize];
         for t in 0..self.tets.len() {
             let v = self.tets[t];
             let finite = t < nf;
             if finite == v.contains(&INFINITE) {
-                return Err(ValidationError::Adjacency { tet: t, face: 0, why: "finite/infinite numbering" });
+                return Err(ValidationError::Adjacency {
+                    tet: t,
+                    face: 0,
+                    why: "finite/infinite numbering",
+                });
             }
             if finite {
                 let o = orient3d(p(v[0]), p(v[1]), p(v[2]), p(v[3]));
@@ -114,17 +122,29 @@ impl Tetrahedralization {
                 let a = self.adj[t][i];
                 let (n, j) = ((a >> 2) as usize, (a & 3) as usize);
                 if n >= self.tets.len() || self.adj[n][j] != (t * 4 + i) as u32 {
-                    return Err(ValidationError::Adjacency { tet: t, face: i, why: "not symmetric" });
+                    return Err(ValidationError::Adjacency {
+                        tet: t,
+                        face: i,
+                        why: "not symmetric",
+                    });
                 }
                 let mut f1 = FACE_SLOTS[i].map(|s| v[s]);
                 let mut f2 = FACE_SLOTS[j].map(|s| self.tets[n][s]);
                 f1.sort_unstable();
                 f2.sort_unstable();
                 if f1 != f2 {
-                    return Err(ValidationError::Adjacency { tet: t, face: i, why: "neighbours disagree on the face" });
+                    return Err(ValidationError::Adjacency {
+                        tet: t,
+                        face: i,
+                        why: "neighbours disagree on the face",
+                    });
                 }
                 if !finite && v[i] == INFINITE && n >= nf {
-                    return Err(ValidationError::Adjacency { tet: t, face: i, why: "hull face without a finite side" });
+                    return Err(ValidationError::Adjacency {
+                        tet: t,
+                        face: i,
+                        why: "hull face without a finite side",
+                    });
                 }
                 if finite && n < nf && t < n {
                     // Apex of the neighbour must be strictly on the other side of face i.
@@ -158,17 +178,26 @@ impl Tetrahedralization {
                 let a = self.adj[t][i];
                 let (n, _) = ((a >> 2) as usize, (a & 3) as usize);
                 if n < nf {
-                    return Err(ValidationError::Adjacency { tet: t, face: i, why: "infinite tetrahedron next to a finite one across an infinite face" });
+                    return Err(ValidationError::Adjacency {
+                        tet: t,
+                        face: i,
+                        why: "infinite tetrahedron next to a finite one across an infinite face",
+                    });
                 }
                 // The apex of n's hull face that is not on the shared edge.
                 let w = self.tets[n];
-                let apex = *w.iter().find(|&&x| x != INFINITE && !v.contains(&x)).expect("hull faces differ");
+                let apex = *w
+                    .iter()
+                    .find(|&&x| x != INFINITE && !v.contains(&x))
+                    .expect("hull faces differ");
                 // Face k of an infinite tetrahedron is counter-clockwise seen from outside
                 // *that* tetrahedron, i.e. from inside the hull: a point strictly outside the
                 // hull is below it.
                 let o = orient3d(p(face[0]), p(face[1]), p(face[2]), p(apex));
                 if o < 0 {
-                    let fin = |u: usize| (self.adj[u][self.tets[u].iter().position(|&x| x == INFINITE).unwrap()] >> 2) as usize;
+                    let fin = |u: usize| {
+                        (self.adj[u][self.tets[u].iter().position(|&x| x == INFINITE).unwrap()] >> 2) as usize
+                    };
                     return Err(ValidationError::NonConvexHull { a: fin(t), b: fin(n) });
                 }
                 if o == 0 && t < n {
@@ -204,16 +233,27 @@ impl Tetrahedralization {
         rep.faces = (4 * nf + rep.hull_faces) / 2;
         let (v, e, f, t) = (rep.vertices as i64, rep.edges as i64, rep.faces as i64, nf as i64);
         if v - e + f - t != 1 {
-            return Err(ValidationError::Euler { what: "V - E + F - T", value: v - e + f - t, expected: 1 });
+            return Err(ValidationError::Euler {
+                what: "V - E + F - T",
+                value: v - e + f - t,
+                expected: 1,
+            });
         }
         // Hull: F_h hull faces, E_h = 3 F_h / 2 hull edges, V_h hull vertices.
-        let mut hull_v: Vec<u32> = self.tets[nf..].iter().flat_map(|v| v.iter().copied().filter(|&x| x != INFINITE)).collect();
+        let mut hull_v: Vec<u32> = self.tets[nf..]
+            .iter()
+            .flat_map(|v| v.iter().copied().filter(|&x| x != INFINITE))
+            .collect();
         hull_v.sort_unstable();
         hull_v.dedup();
         let fh = rep.hull_faces as i64;
         let chi = hull_v.len() as i64 - 3 * fh / 2 + fh;
         if 3 * fh % 2 != 0 || chi != 2 {
-            return Err(ValidationError::Euler { what: "hull V - E + F", value: chi, expected: 2 });
+            return Err(ValidationError::Euler {
+                what: "hull V - E + F",
+                value: chi,
+                expected: 2,
+            });
         }
         Ok(rep)
     }
