@@ -5,7 +5,9 @@
 //! ← later stages (cell complex, decimation).
 
 pub mod bench;
+pub mod complex;
 pub mod delaunay;
+pub mod geom;
 pub mod ids;
 pub mod model;
 pub mod predicates;

@@ -36,6 +36,15 @@ enum Cmd {
         #[arg(long)]
         no_validate: bool,
     },
+    /// Build the cell complex: split tetrahedra by model polygons, build the portal graph,
+    /// remove the exterior. Prints the counts in the thesis's terms with stage timings.
+    Complex {
+        /// Model file (.obj or .mesh).
+        model: PathBuf,
+        /// Skip the invariant check (convex cells, coverage, volumes, no crossing).
+        #[arg(long)]
+        no_validate: bool,
+    },
     /// Benchmarks that print tables (performance goals live here, not in tests).
     Bench {
         #[command(subcommand)]
@@ -68,6 +77,7 @@ fn main() -> Result<()> {
     match cli.cmd {
         Cmd::Info { model } => info(&model),
         Cmd::Tetra { model, no_validate } => tetra(&model, !no_validate),
+        Cmd::Complex { model, no_validate } => complex(&model, !no_validate),
         Cmd::Bench { what } => match what {
             BenchCmd::One { kind, n } => {
                 let row = bench::run_one(&kind, n, true).with_context(|| format!("unknown input kind {kind:?}"))?;
@@ -127,6 +137,69 @@ fn tetra(path: &std::path::Path, validate: bool) -> Result<()> {
                 r.vertices, r.edges, r.faces, r.tets, r.cospherical_faces, r.coplanar_hull_edges
             ),
             Err(e) => bail!("validation failed: {e}"),
+        }
+    }
+    Ok(())
+}
+
+fn complex(path: &std::path::Path, validate: bool) -> Result<()> {
+    let m = load(path)?;
+    let t0 = Instant::now();
+    let t = Tetrahedralization::build(&m.vertices).with_context(|| format!("cannot tetrahedralize {}", path.display()))?;
+    let tt = t0.elapsed().as_secs_f64();
+    let cx = portalfind::complex::CellComplex::build(&m, &t);
+    let s = &cx.stats;
+    println!("{:<44}{:>10}", "stage", "seconds");
+    println!("{:<44}{:>10.3}", "delaunay tetrahedralization", tt);
+    for (name, secs) in &s.timings {
+        println!("{name:<44}{secs:>10.3}");
+    }
+    println!();
+    let rows: [(&str, String); 15] = [
+        ("model polygons", s.polygons.to_string()),
+        ("tetrahedra", s.tetrahedra.to_string()),
+        ("polygons skipped as already conforming", s.polygons_conforming.to_string()),
+        ("polygons clipped against cells", s.polygons_clipped.to_string()),
+        ("cells split", s.cells_split.to_string()),
+        ("splits refused (sliver)", s.splits_refused.to_string()),
+        ("fragments left unplaced", s.unplaced_fragments.to_string()),
+        ("cells after splitting", s.cells_after_split.to_string()),
+        ("exterior cells removed", format!("{} in {} regions", s.exterior_cells_removed, s.exterior_regions)),
+        ("active cells", format!("{} in {} regions", s.active_cells, s.interior_regions)),
+        ("portal pairs", s.portal_pairs.to_string()),
+        ("portal polygons", s.portal_polygons.to_string()),
+        ("slivers discarded", format!("{} (total area {:.3e})", s.slivers_discarded, s.sliver_area)),
+        ("leaks", s.leaks.to_string()),
+        ("hull volume", format!("{:.6e}", cx.hull_volume)),
+    ];
+    for (k, v) in rows {
+        println!("{k:<44}{v:>10}");
+    }
+    for (i, l) in cx.leaks.iter().enumerate() {
+        println!(
+            "leak {i}: region of {} cells; path of {} cells from cell {}; first portal at ({:.3}, {:.3}, {:.3}); leaves the hull at ({:.3}, {:.3}, {:.3})",
+            l.region_cells,
+            l.path.len(),
+            l.from_cell,
+            l.first_portal_point[0],
+            l.first_portal_point[1],
+            l.first_portal_point[2],
+            l.hull_point[0],
+            l.hull_point[1],
+            l.hull_point[2]
+        );
+    }
+    if validate {
+        let t1 = Instant::now();
+        match cx.validate(&m) {
+            Ok(v) => println!(
+                "validate ok in {:.3} s ({} cells, {} patches, volume error {:.1e})",
+                t1.elapsed().as_secs_f64(),
+                v.cells,
+                v.patches,
+                v.volume_rel_error
+            ),
+            Err(e) => bail!("complex validation failed: {e}"),
         }
     }
     Ok(())

@@ -1,0 +1,496 @@
+//! Stages 1–3: cells from tetrahedra, conforming polygons, splitting.
+
+use super::{Cell, CellComplex, ComplexStats, HULL, Occluder, Patch, PatchId};
+use crate::delaunay::{FACE_SLOTS, Tetrahedralization};
+use crate::geom::{Classification, ConvexPolygon, ConvexPolyhedron, Cut, Plane, PolygonSplit};
+use crate::ids::{CellId, PolygonId, TetId, VertexId};
+use crate::model::Model;
+use crate::predicates::orient3d;
+use std::collections::{HashMap, HashSet, VecDeque};
+use std::time::Instant;
+
+impl CellComplex {
+    /// Builds the complex of `model` over its tetrahedralization `tet` (which must be of
+    /// `model.vertices`, in order): splitting, portal graph and exterior removal.
+    pub fn build(model: &Model, tet: &Tetrahedralization) -> CellComplex {
+        let t0 = Instant::now();
+        let mut cx = CellComplex::from_tets(model, tet);
+        cx.stats.polygons = model.polygons.len();
+        cx.stats.timings.push(("cells from tetrahedra".into(), t0.elapsed().as_secs_f64()));
+
+        let t1 = Instant::now();
+        let pending = cx.attach_conforming(model, tet);
+        cx.stats.timings.push(("conforming polygons".into(), t1.elapsed().as_secs_f64()));
+
+        let t2 = Instant::now();
+        let mut placer = Placer::new(tet, cx.cells.len());
+        for &p in &pending {
+            cx.place_polygon(model, tet, &mut placer, p);
+        }
+        cx.stats.polygons_clipped = pending.len();
+        cx.stats.cells_after_split = cx.cells.iter().filter(|c| c.alive).count();
+        cx.stats.timings.push(("splitting".into(), t2.elapsed().as_secs_f64()));
+
+        let t3 = Instant::now();
+        cx.build_graph();
+        cx.stats.timings.push(("portal graph".into(), t3.elapsed().as_secs_f64()));
+
+        let t4 = Instant::now();
+        cx.remove_exterior();
+        cx.stats.timings.push(("exterior removal".into(), t4.elapsed().as_secs_f64()));
+        cx
+    }
+
+    /// Stage 1: one cell per finite tetrahedron, one patch per face.
+    fn from_tets(model: &Model, tet: &Tetrahedralization) -> CellComplex {
+        let nt = tet.num_tets();
+        let mut patches: Vec<Patch> = Vec::with_capacity(2 * nt + tet.num_hull_faces());
+        let mut face_patch: Vec<[u32; 4]> = vec![[u32::MAX; 4]; nt];
+        let mut hull_volume = 0.0;
+        for (t, _) in tet.tets() {
+            hull_volume += tet.volume(t);
+            for i in 0..4 {
+                if face_patch[t.idx()][i] != u32::MAX {
+                    continue;
+                }
+                let poly = ConvexPolygon::new(tet.face(t, i).iter().map(|v| *tet.point(*v)).collect());
+                let id = patches.len() as u32;
+                let other = match tet.neighbor(t, i) {
+                    Some((n, j)) => {
+                        face_patch[n.idx()][j] = id;
+                        CellId(n.0)
+                    }
+                    None => HULL,
+                };
+                face_patch[t.idx()][i] = id;
+                patches.push(Patch { polygon: poly, cells: [CellId(t.0), other], occluders: Vec::new(), alive: true });
+            }
+        }
+        let cells = tet
+            .tets()
+            .map(|(t, _)| {
+                let faces = (0..4).map(|i| patches[face_patch[t.idx()][i] as usize].polygon.clone()).collect::<Vec<_>>();
+                // The patch polygon is oriented outward of cells[0]; reverse it where this
+                // tetrahedron is cells[1].
+                let faces = faces
+                    .into_iter()
+                    .enumerate()
+                    .map(|(i, f)| {
+                        let p = &patches[face_patch[t.idx()][i] as usize];
+                        if p.cells[0] == CellId(t.0) { f } else { f.reversed() }
+                    })
+                    .collect();
+                Cell {
+                    poly: ConvexPolyhedron::from_faces(faces, face_patch[t.idx()].to_vec()),
+                    tet: t,
+                    alive: true,
+                    exterior: false,
+                }
+            })
+            .collect();
+        let stats = ComplexStats { tetrahedra: nt, ..Default::default() };
+        CellComplex {
+            cells,
+            patches,
+            portals: Vec::new(),
+            leaks: Vec::new(),
+            stats,
+            tol: model.tolerances,
+            hull_volume,
+        }
+    }
+
+    /// Stage 2: polygons whose fan triangles are all tetrahedron faces get occluders on
+    /// those faces without any geometry. Returns the polygons left for stage 3.
+    fn attach_conforming(&mut self, model: &Model, tet: &Tetrahedralization) -> Vec<PolygonId> {
+        // Sorted vertex triple of every tetrahedron face -> its patch.
+        let mut wanted: HashMap<[u32; 3], Option<PatchId>> = HashMap::new();
+        let fans = |p: &[VertexId], start: usize| -> Vec<[u32; 3]> {
+            let n = p.len();
+            (1..n - 1).map(|k| [p[start].0, p[(start + k) % n].0, p[(start + k + 1) % n].0]).collect()
+        };
+        let key = |t: &[u32; 3]| {
+            let mut k = *t;
+            k.sort_unstable();
+            k
+        };
+        for poly in &model.polygons {
+            let starts = if poly.verts.len() > 3 { 2 } else { 1 };
+            for s in 0..starts {
+                for tri in fans(&poly.verts, s) {
+                    wanted.insert(key(&tri), None);
+                }
+            }
+        }
+        for (pi, p) in self.patches.iter().enumerate() {
+            let (t, i) = (p.cells[0], self.cells[p.cells[0].idx()].poly.tags.iter().position(|&x| x == pi as u32));
+            let Some(i) = i else { continue };
+            let f = tet.face(TetId(t.0), i).map(|v| v.0);
+            if let Some(slot) = wanted.get_mut(&key(&f)) {
+                *slot = Some(PatchId(pi as u32));
+            }
+        }
+        let mut pending = Vec::new();
+        for (k, poly) in model.polygons.iter().enumerate() {
+            let starts = if poly.verts.len() > 3 { 2 } else { 1 };
+            let fan = (0..starts)
+                .map(|s| fans(&poly.verts, s))
+                .find(|tris| tris.iter().all(|t| matches!(wanted.get(&key(t)), Some(Some(_)))));
+            let Some(tris) = fan else {
+                pending.push(PolygonId(k as u32));
+                continue;
+            };
+            self.stats.polygons_conforming += 1;
+            for tri in tris {
+                let pid = wanted[&key(&tri)].expect("checked");
+                let patch = &mut self.patches[pid.idx()];
+                let pv: Vec<P3Key> = patch.polygon.verts.iter().map(|p| p.map(f64::to_bits)).collect();
+                let tv: Vec<P3Key> = tri.iter().map(|&v| model.vertices[v as usize].map(f64::to_bits)).collect();
+                // Same cyclic order as the patch: the polygon's normal agrees with the patch
+                // normal, which points into cells[1], so the polygon faces cells[1].
+                let same = (0..3).any(|r| (0..3).all(|j| pv[(r + j) % 3] == tv[j]));
+                // The triangle *is* the patch; occluders are stored in the patch's orientation.
+                let polygon = patch.polygon.clone();
+                patch.occluders.push(Occluder { polygon, source: PolygonId(k as u32), faces: if same { 1 } else { 0 } });
+            }
+        }
+        pending
+    }
+
+    /// Stage 3 for one polygon: visit the cells it touches; split straddled cells; attach
+    /// occluders on faces it lies on.
+    fn place_polygon(&mut self, model: &Model, tet: &Tetrahedralization, pl: &mut Placer, pid: PolygonId) {
+        let poly = &model.polygons[pid.idx()];
+        let verts: Vec<[f64; 3]> = poly.verts.iter().map(|v| model.vertices[v.idx()]).collect();
+        let polygon = ConvexPolygon::new(verts.clone());
+        // Plane through the polygon's first three non-collinear vertices, front = CCW side.
+        let ids: Vec<VertexId> = poly.verts.clone();
+        let plane = Plane::from_points(&verts[0], &verts[1], &verts[2]);
+        let (lo, hi) = aabb(&verts);
+        let slack = self.tol.plane_abs() * 4.0 + self.tol.weld_abs();
+
+        pl.queue.clear();
+        pl.epoch += 1;
+        let epoch = pl.epoch;
+        for c in pl.seed_cells(tet, ids[0], &self.cells) {
+            pl.mark(c, epoch);
+            pl.queue.push_back(c);
+        }
+        while let Some(c) = pl.queue.pop_front() {
+            if !self.cells[c.idx()].alive {
+                continue;
+            }
+            if !self.touches(c, &polygon, &plane, lo, hi, slack) {
+                continue;
+            }
+            // Classify: exactly for unsplit tetrahedra, with tolerance otherwise.
+            let class = self.classify(c, tet, &ids, &plane);
+            let mut next: Vec<CellId> = Vec::new();
+            match class {
+                Classification::Straddles => {
+                    let clip = clip_to_cell(&polygon, &self.cells[c.idx()].poly, &self.tol);
+                    match clip {
+                        Some(clip) if clip.area() >= self.tol.area_abs() => match self.split_cell(c, &plane, clip, pid) {
+                            Some((f, b)) => {
+                                pl.on_split(c, f, b, &self.cells);
+                                next.push(f);
+                                next.push(b);
+                                pl.mark(f, epoch);
+                                pl.mark(b, epoch);
+                            }
+                            None => {
+                                self.stats.splits_refused += 1;
+                                self.attach_on_faces(c, &polygon, &plane, pid, true);
+                                next.push(c);
+                            }
+                        },
+                        _ => next.push(c),
+                    }
+                }
+                Classification::Front | Classification::Coplanar => {
+                    self.attach_on_faces(c, &polygon, &plane, pid, false);
+                    next.push(c);
+                }
+                Classification::Back => next.push(c),
+            }
+            for c in next {
+                for &t in &self.cells[c.idx()].poly.tags {
+                    let n = self.across(PatchId(t), c);
+                    if n != HULL && pl.mark(n, epoch) {
+                        pl.queue.push_back(n);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Conservative test: can the polygon intersect the closed cell?
+    fn touches(&self, c: CellId, polygon: &ConvexPolygon, plane: &Plane, lo: [f64; 3], hi: [f64; 3], slack: f64) -> bool {
+        let cell = &self.cells[c.idx()].poly;
+        let (clo, chi) = cell.aabb();
+        if (0..3).any(|a| clo[a] > hi[a] + slack || chi[a] < lo[a] - slack) {
+            return false;
+        }
+        let vs = cell.vertices();
+        let un = plane.normalized();
+        let ds: Vec<f64> = vs.iter().map(|v| un.eval(v)).collect();
+        if ds.iter().all(|&d| d > slack) || ds.iter().all(|&d| d < -slack) {
+            return false;
+        }
+        // Separated by a face plane of the cell?
+        for f in cell.planes() {
+            let f = f.normalized();
+            if polygon.verts.iter().all(|v| f.eval(v) > slack) {
+                return false;
+            }
+        }
+        true
+    }
+
+    fn classify(&self, c: CellId, tet: &Tetrahedralization, ids: &[VertexId], plane: &Plane) -> Classification {
+        let cell = &self.cells[c.idx()];
+        if self.is_original_tet(c) {
+            // All four vertices are input vertices: exact orientation against the
+            // polygon's plane through three input vertices.
+            let (a, b, cc) = (tet.point(ids[0]), tet.point(ids[1]), tet.point(ids[2]));
+            let sides = tet.tet(cell.tet).map(|v| orient3d(a, b, cc, tet.point(v)));
+            let (f, bk) = (sides.iter().any(|&s| s > 0), sides.iter().any(|&s| s < 0));
+            return match (f, bk) {
+                (true, true) => Classification::Straddles,
+                (true, false) => Classification::Front,
+                (false, true) => Classification::Back,
+                _ => Classification::Coplanar,
+            };
+        }
+        cell.poly.classify(plane, &self.tol)
+    }
+
+    /// Unsplit tetrahedra keep their four input vertices (faces may have gained collinear
+    /// T-vertices from split neighbours, which lie on the same edges).
+    fn is_original_tet(&self, c: CellId) -> bool {
+        c.idx() < self.stats.tetrahedra && self.cells[c.idx()].alive
+    }
+
+    /// Attaches the overlap of `polygon` with each of `c`'s faces lying on its plane, when
+    /// `c` is on the polygon's front side. With `near`, faces within tolerance of the plane
+    /// also count (used when a split was refused as a sliver).
+    fn attach_on_faces(&mut self, c: CellId, polygon: &ConvexPolygon, plane: &Plane, pid: PolygonId, near: bool) {
+        let un = plane.normalized();
+        let eps = self.tol.plane_abs() * if near { 1e3 } else { 1.0 } + if near { self.tol.weld_abs() } else { 0.0 };
+        let mut attached = false;
+        let cell = &self.cells[c.idx()];
+        let mut adds: Vec<(usize, Occluder)> = Vec::new();
+        for (fi, f) in cell.poly.faces.iter().enumerate() {
+            if !f.verts.iter().all(|v| un.eval(v).abs() <= eps) {
+                continue;
+            }
+            // The face's outward normal must point against the polygon's normal for the
+            // polygon's front to face this cell.
+            let fnrm = f.normal();
+            let d = fnrm[0] * un.n[0] + fnrm[1] * un.n[1] + fnrm[2] * un.n[2];
+            if d > -0.5 {
+                continue;
+            }
+            let Some(ov) = f.intersect_coplanar(polygon, &self.tol) else { continue };
+            if ov.area() < self.tol.area_abs() {
+                continue;
+            }
+            let t = cell.poly.tags[fi] as usize;
+            let side = if self.patches[t].cells[0] == c { 0 } else { 1 };
+            // Store in the patch's orientation (outward of cells[0]).
+            let polygon = if side == 0 { ov } else { ov.reversed() };
+            adds.push((t, Occluder { polygon, source: pid, faces: side }));
+            attached = true;
+        }
+        for (t, o) in adds {
+            self.patches[t].occluders.push(o);
+        }
+        if near && !attached {
+            self.stats.unplaced_fragments += 1;
+        }
+    }
+
+    /// Splits cell `c` by `plane`; the clipped polygon becomes an occluder on the new patch
+    /// facing the front piece. Returns (front, back), or `None` if the split was refused.
+    fn split_cell(&mut self, c: CellId, plane: &Plane, clip: ConvexPolygon, pid: PolygonId) -> Option<(CellId, CellId)> {
+        let new_patch = self.patches.len() as u32;
+        let cut = self.cells[c.idx()].poly.cut(plane, &self.tol, new_patch);
+        let Cut::Split(s) = cut else { return None };
+        let s = *s;
+        let (fid, bid) = (CellId(self.cells.len() as u32), CellId(self.cells.len() as u32 + 1));
+        let tet = self.cells[c.idx()].tet;
+        // The cross-section patch: outward of the back piece, into the front piece.
+        let clip = s.section.intersect_coplanar(&clip, &self.tol).unwrap_or(clip);
+        self.patches.push(Patch {
+            polygon: s.section.clone(),
+            cells: [bid, fid],
+            occluders: vec![Occluder { polygon: clip, source: pid, faces: 1 }],
+            alive: true,
+        });
+        let mut front = s.front;
+        let mut back = s.back;
+        // Old patches: those wholly on one side move to that piece; those in both are split.
+        let old_tags = self.cells[c.idx()].poly.tags.clone();
+        for &t in &old_tags {
+            let in_f = front.tags.contains(&t);
+            let in_b = back.tags.contains(&t);
+            let t = t as usize;
+            let side = if self.patches[t].cells[0] == c { 0 } else { 1 };
+            match (in_f, in_b) {
+                (true, false) => self.patches[t].cells[side] = fid,
+                (false, true) => self.patches[t].cells[side] = bid,
+                (true, true) => {
+                    let t2 = self.patches.len() as u32;
+                    // Relabel the back piece's part of face t.
+                    let k = back.tags.iter().position(|&x| x as usize == t).expect("in back");
+                    back.tags[k] = t2;
+                    let kf = front.tags.iter().position(|&x| x as usize == t).expect("in front");
+                    let other = self.patches[t].cells[1 - side];
+                    let mut occ_f = Vec::new();
+                    let mut occ_b = Vec::new();
+                    for o in std::mem::take(&mut self.patches[t].occluders) {
+                        match o.polygon.split_exact(plane, &self.tol) {
+                            PolygonSplit::Front | PolygonSplit::Coplanar => occ_f.push(o),
+                            PolygonSplit::Back => occ_b.push(o),
+                            PolygonSplit::Split(pf, pb) => {
+                                occ_f.push(Occluder { polygon: pf, ..o.clone() });
+                                occ_b.push(Occluder { polygon: pb, ..o });
+                            }
+                        }
+                    }
+                    let orient = |p: &ConvexPolygon| if side == 0 { p.clone() } else { p.reversed() };
+                    let pf = orient(&front.faces[kf]);
+                    let pb = orient(&back.faces[k]);
+                    let mut cells_b = self.patches[t].cells;
+                    cells_b[side] = bid;
+                    self.patches[t].cells[side] = fid;
+                    self.patches[t].polygon = pf;
+                    self.patches[t].occluders = occ_f;
+                    self.patches.push(Patch { polygon: pb, cells: cells_b, occluders: occ_b, alive: true });
+                    // The neighbour across must subdivide its face the same way.
+                    if other != HULL {
+                        let nb = &mut self.cells[other.idx()].poly;
+                        if let Some(fi) = nb.tags.iter().position(|&x| x as usize == t) {
+                            // The neighbour's face is reversed: its "front" along `plane` is
+                            // the same half-space, so the front part keeps tag t.
+                            if nb.split_face(fi, plane, &self.tol, t as u32, t2).is_none() {
+                                // Could not split the neighbour's face (grazing): keep tag t
+                                // there and note the inconsistency in the patch counts.
+                                self.stats.splits_refused += 1;
+                            }
+                        }
+                    }
+                }
+                (false, false) => {}
+            }
+        }
+        let _ = &mut front;
+        self.cells[c.idx()].alive = false;
+        self.cells.push(Cell { poly: front, tet, alive: true, exterior: false });
+        self.cells.push(Cell { poly: back, tet, alive: true, exterior: false });
+        self.stats.cells_split += 1;
+        Some((fid, bid))
+    }
+}
+
+type P3Key = [u64; 3];
+
+fn aabb(v: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in v {
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    (lo, hi)
+}
+
+/// The polygon clipped to the closed cell (by every face plane), or `None`.
+fn clip_to_cell(polygon: &ConvexPolygon, cell: &ConvexPolyhedron, tol: &crate::Tolerances) -> Option<ConvexPolygon> {
+    let mut cur = polygon.clone();
+    for f in cell.planes() {
+        // Keep the part behind each outward face plane.
+        let (_, back) = cur.split(&f, tol);
+        cur = back?;
+    }
+    Some(cur)
+}
+
+/// Per-polygon search state: visit marks and the tetrahedron → live cells map.
+struct Placer {
+    queue: VecDeque<CellId>,
+    marks: Vec<u32>,
+    epoch: u32,
+    /// Live cells descending from each tetrahedron (only for split tetrahedra).
+    descendants: HashMap<TetId, Vec<CellId>>,
+    /// One tetrahedron incident to each vertex.
+    vertex_tet: Vec<u32>,
+}
+
+impl Placer {
+    fn new(tet: &Tetrahedralization, ncells: usize) -> Self {
+        let mut vertex_tet = vec![u32::MAX; tet.points().len()];
+        for (t, v) in tet.tets() {
+            for x in v {
+                vertex_tet[x.idx()] = t.0;
+            }
+        }
+        Placer { queue: VecDeque::new(), marks: vec![0; ncells], epoch: 0, descendants: HashMap::new(), vertex_tet }
+    }
+
+    /// Marks a cell for this epoch; true if it was not marked yet.
+    fn mark(&mut self, c: CellId, epoch: u32) -> bool {
+        if c.idx() >= self.marks.len() {
+            self.marks.resize(c.idx() + 1, 0);
+        }
+        let m = &mut self.marks[c.idx()];
+        if *m == epoch {
+            false
+        } else {
+            *m = epoch;
+            true
+        }
+    }
+
+    fn on_split(&mut self, c: CellId, f: CellId, b: CellId, cells: &[Cell]) {
+        let t = cells[c.idx()].tet;
+        let list = self.descendants.entry(t).or_insert_with(|| vec![CellId(t.0)]);
+        list.retain(|&x| x != c);
+        list.push(f);
+        list.push(b);
+    }
+
+    /// Live cells around vertex `v`: the descendants of the tetrahedra in its star.
+    fn seed_cells(&self, tet: &Tetrahedralization, v: VertexId, cells: &[Cell]) -> Vec<CellId> {
+        let v = tet.representative(v.idx());
+        let start = self.vertex_tet[v.idx()];
+        let mut out = Vec::new();
+        if start == u32::MAX {
+            return out;
+        }
+        let mut seen: HashSet<u32> = HashSet::new();
+        let mut stack = vec![start];
+        seen.insert(start);
+        while let Some(t) = stack.pop() {
+            match self.descendants.get(&TetId(t)) {
+                Some(list) => out.extend(list.iter().copied().filter(|c| cells[c.idx()].alive)),
+                None => out.push(CellId(t)),
+            }
+            let vs = tet.tet(TetId(t));
+            for i in 0..4 {
+                if vs[i] == v {
+                    continue; // the face opposite v does not contain v
+                }
+                if let Some((n, _)) = tet.neighbor(TetId(t), i) {
+                    if seen.insert(n.0) {
+                        stack.push(n.0);
+                    }
+                }
+            }
+        }
+        let _ = FACE_SLOTS;
+        out
+    }
+}

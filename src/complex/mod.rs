@@ -1,0 +1,216 @@
+//! The cell complex: tetrahedra split by model polygons, the portal graph between cells,
+//! and the flood fill that removes the outside (Gjørup 1999, sections 4.2.1 and 4.2.2).
+//!
+//! Topology and geometry are kept apart: a [`Cell`] is a convex polyhedron (geometry, from
+//! [`crate::geom`]) whose faces are tagged with [`PatchId`]s; a [`Patch`] is the topology —
+//! one convex piece of boundary shared by exactly two cells (or a cell and the hull), with
+//! the occluders (clipped model polygons) lying on it. Portals are computed from patches
+//! as *patch minus occluders*, and grouped per cell pair.
+//!
+//! Stages ([`CellComplex::build`]):
+//! 1. **Cells from tetrahedra.** One cell per finite tetrahedron, one patch per face.
+//! 2. **Conforming polygons, no geometry.** A polygon whose fan triangles are all faces of
+//!    the tetrahedralization already lies on cell boundaries: its triangles become occluders
+//!    on those faces' patches, found by a hash lookup of vertex triples. The side it faces
+//!    is decided combinatorially (cyclic vertex order), so exactly.
+//! 3. **Splitting.** Every other polygon visits only the cells it touches, by a breadth-first
+//!    search over patches starting at the cells around its first vertex. A straddled cell
+//!    is split by the polygon's plane (the whole cell, so pieces stay convex); the clipped
+//!    polygon becomes an occluder on the new patch, facing the front piece. A cell whose
+//!    face lies on the polygon and that sees the polygon's front gets the overlap as an
+//!    occluder. Tetrahedra (input vertices only) are classified against the polygon's plane
+//!    with exact [`orient3d`](crate::predicates::orient3d); split cells with tolerances.
+//! 4. **Portal graph.** Each patch between two cells, minus all its occluders (either
+//!    side), gives convex portal pieces; pieces below the area tolerance are slivers,
+//!    counted and dropped. Pieces are grouped per cell pair into [`Portal`]s.
+//! 5. **Exterior removal.** Connected regions of the portal graph where no cell faces an
+//!    occluder are removed (the outside; the inside of walls). A region that faces
+//!    occluders *and* reaches the hull through an uncovered hull patch is a leak: reported,
+//!    with the path, and kept.
+//!
+//! Invariants (checked by [`CellComplex::validate`]): alive cells are convex with positive
+//! volume and their face tags name live patches that list them; each patch's two cells
+//! hold it; portals are symmetric; before removal, cell volumes sum to the hull volume;
+//! every cell's boundary area equals its patches' area, and each patch's area is covered
+//! by its occluders plus its portal pieces (plus discarded slivers).
+
+mod build;
+mod graph;
+mod validate;
+
+pub use validate::{ComplexError, ComplexValidation};
+
+use crate::geom::{ConvexPolygon, ConvexPolyhedron};
+use crate::ids::{CellId, PolygonId, TetId};
+use crate::tolerances::Tolerances;
+use serde::Serialize;
+
+/// The outside of the convex hull, as the second cell of a hull patch.
+pub const HULL: CellId = CellId(u32::MAX);
+
+/// Index of a [`Patch`].
+#[derive(Copy, Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
+pub struct PatchId(pub u32);
+
+impl PatchId {
+    /// As a `usize`.
+    pub fn idx(self) -> usize {
+        self.0 as usize
+    }
+}
+
+/// A clipped model polygon lying on a patch.
+#[derive(Clone, Debug)]
+pub struct Occluder {
+    /// The fragment (inside the patch polygon, coplanar with it).
+    pub polygon: ConvexPolygon,
+    /// The model polygon it was clipped from.
+    pub source: PolygonId,
+    /// Which of the patch's two cells its front side faces (0 or 1).
+    pub faces: u8,
+}
+
+/// One convex piece of boundary between two cells (or a cell and the hull).
+#[derive(Clone, Debug)]
+pub struct Patch {
+    /// Counter-clockwise seen from outside `cells[0]`: its normal points into `cells[1]`.
+    pub polygon: ConvexPolygon,
+    /// The two cells; `cells[1]` is [`HULL`] on the convex hull.
+    pub cells: [CellId; 2],
+    /// Occluders lying on this patch (from either side).
+    pub occluders: Vec<Occluder>,
+    /// False once the patch was replaced (split in two).
+    pub alive: bool,
+}
+
+/// A convex cell.
+#[derive(Clone, Debug)]
+pub struct Cell {
+    /// Geometry; face tags are [`PatchId`]s.
+    pub poly: ConvexPolyhedron,
+    /// The tetrahedron it descends from.
+    pub tet: TetId,
+    /// False once split (replaced by its pieces).
+    pub alive: bool,
+    /// True once removed by the exterior flood fill.
+    pub exterior: bool,
+}
+
+impl Cell {
+    /// Alive and not removed as exterior.
+    pub fn active(&self) -> bool {
+        self.alive && !self.exterior
+    }
+}
+
+/// All portal pieces between one pair of cells.
+#[derive(Clone, Debug, Serialize)]
+pub struct Portal {
+    /// The two cells, `cells[0] < cells[1]`.
+    pub cells: [CellId; 2],
+    /// Convex pieces, each oriented with its normal pointing from `cells[0]` to `cells[1]`.
+    #[serde(skip)]
+    pub pieces: Vec<ConvexPolygon>,
+    /// Sum of the pieces' areas.
+    pub area: f64,
+}
+
+/// A leak: a region that faces occluders but reaches the convex hull (qbsp's sense).
+#[derive(Clone, Debug, Serialize)]
+pub struct Leak {
+    /// Cells in the region.
+    pub region_cells: usize,
+    /// The interior cell the path starts from (one facing occluders, farthest from the hull).
+    pub from_cell: CellId,
+    /// The cells of a shortest path from `from_cell` to a cell with an open hull face.
+    pub path: Vec<CellId>,
+    /// A point on the first portal of that path (its centroid).
+    pub first_portal_point: [f64; 3],
+    /// A point on the uncovered hull face where the path leaves the model.
+    pub hull_point: [f64; 3],
+}
+
+/// Counts and timings in the thesis's terms.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct ComplexStats {
+    /// Finite tetrahedra of the Delaunay tetrahedralization.
+    pub tetrahedra: usize,
+    /// Model polygons.
+    pub polygons: usize,
+    /// Polygons whose triangles were already tetrahedron faces (no geometry done).
+    pub polygons_conforming: usize,
+    /// Polygons placed by clipping and splitting.
+    pub polygons_clipped: usize,
+    /// Cell splits performed (each adds one cell).
+    pub cells_split: usize,
+    /// Splits refused because a piece would have been a sliver (the polygon was attached
+    /// to the nearby face instead, or left unplaced).
+    pub splits_refused: usize,
+    /// Polygon fragments that could be neither split on nor attached (area in model units²).
+    pub unplaced_fragments: usize,
+    /// Cells after splitting.
+    pub cells_after_split: usize,
+    /// Cells removed by the exterior flood fill.
+    pub exterior_cells_removed: usize,
+    /// Cells left.
+    pub active_cells: usize,
+    /// Cell pairs joined by portals (among active cells).
+    pub portal_pairs: usize,
+    /// Convex portal polygons (among active cells).
+    pub portal_polygons: usize,
+    /// Portal pieces discarded as slivers (area below tolerance).
+    pub slivers_discarded: usize,
+    /// Their total area.
+    pub sliver_area: f64,
+    /// Regions removed as exterior.
+    pub exterior_regions: usize,
+    /// Regions kept.
+    pub interior_regions: usize,
+    /// Leaks found.
+    pub leaks: usize,
+    /// Stage timings in seconds, in order.
+    pub timings: Vec<(String, f64)>,
+}
+
+/// The cell complex with its portal graph.
+#[derive(Clone, Debug)]
+pub struct CellComplex {
+    /// All cells ever created (dead ones stay, so ids are stable).
+    pub cells: Vec<Cell>,
+    /// All patches ever created.
+    pub patches: Vec<Patch>,
+    /// Portals between active cells, after [`CellComplex::build`].
+    pub portals: Vec<Portal>,
+    /// Leaks found by the flood fill.
+    pub leaks: Vec<Leak>,
+    /// Counts and timings.
+    pub stats: ComplexStats,
+    /// The tolerances used.
+    pub tol: Tolerances,
+    /// Volume of the convex hull (sum of tetrahedron volumes).
+    pub hull_volume: f64,
+}
+
+impl CellComplex {
+    /// Alive cells (not split), including exterior ones.
+    pub fn alive_cells(&self) -> impl Iterator<Item = (CellId, &Cell)> {
+        self.cells.iter().enumerate().filter(|(_, c)| c.alive).map(|(i, c)| (CellId(i as u32), c))
+    }
+    /// Active cells (alive, not exterior).
+    pub fn active_cells(&self) -> impl Iterator<Item = (CellId, &Cell)> {
+        self.cells.iter().enumerate().filter(|(_, c)| c.active()).map(|(i, c)| (CellId(i as u32), c))
+    }
+    /// The other cell of a patch, seen from `c`.
+    pub fn across(&self, p: PatchId, c: CellId) -> CellId {
+        let cs = self.patches[p.idx()].cells;
+        if cs[0] == c { cs[1] } else { cs[0] }
+    }
+    /// Whether any occluder on the cell's patches faces the cell.
+    pub fn faces_occluder(&self, c: CellId) -> bool {
+        self.cells[c.idx()].poly.tags.iter().any(|&t| {
+            let p = &self.patches[t as usize];
+            let side = if p.cells[0] == c { 0 } else { 1 };
+            p.occluders.iter().any(|o| o.faces == side)
+        })
+    }
+}

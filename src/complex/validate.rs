@@ -1,0 +1,234 @@
+//! Invariant checker for [`CellComplex`]. Tests call it after building.
+
+use super::{CellComplex, HULL, PatchId};
+use crate::geom::{Classification, ConvexPolygon, Plane};
+use crate::ids::CellId;
+use crate::model::Model;
+
+/// The first violated invariant of a cell complex.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum ComplexError {
+    /// A cell's polyhedron is not closed, convex and of positive volume.
+    #[error("cell {cell} is not a valid convex polyhedron: {why}")]
+    BadCell {
+        /// The cell.
+        cell: u32,
+        /// What the geometry check said.
+        why: String,
+    },
+    /// A cell's face names a patch that does not list the cell, or vice versa.
+    #[error("cell {cell} and patch {patch} disagree: {why}")]
+    Topology {
+        /// The cell.
+        cell: u32,
+        /// The patch.
+        patch: u32,
+        /// What is inconsistent.
+        why: &'static str,
+    },
+    /// A patch's area is not accounted for by its occluders and portal pieces.
+    #[error("patch {patch}: area {area:.6e} but open {open:.6e} + occluders {occluded:.6e} + slivers {slivers:.6e}")]
+    Coverage {
+        /// The patch.
+        patch: u32,
+        /// Its area.
+        area: f64,
+        /// Uncovered area (portal pieces).
+        open: f64,
+        /// Sum of occluder areas (may exceed the covered area when they overlap).
+        occluded: f64,
+        /// Discarded slivers.
+        slivers: f64,
+    },
+    /// A portal pair is listed twice or joins an inactive cell.
+    #[error("portal between cells {a} and {b}: {why}")]
+    Portal {
+        /// One cell.
+        a: u32,
+        /// The other.
+        b: u32,
+        /// What is wrong.
+        why: &'static str,
+    },
+    /// The cells do not fill the convex hull.
+    #[error("cell volumes sum to {sum:.9e}, the hull's volume is {hull:.9e}")]
+    Volume {
+        /// Sum of alive cell volumes.
+        sum: f64,
+        /// Hull volume.
+        hull: f64,
+    },
+    /// A model polygon crosses the interior of a cell (so a portal may cross it).
+    #[error("model polygon {polygon} crosses the interior of cell {cell} (crossing area {area:.3e})")]
+    Crossing {
+        /// The polygon.
+        polygon: u32,
+        /// The cell.
+        cell: u32,
+        /// Area of the polygon inside the cell.
+        area: f64,
+    },
+}
+
+/// What a successful validation counted.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct ComplexValidation {
+    /// Alive cells checked.
+    pub cells: usize,
+    /// Alive patches checked.
+    pub patches: usize,
+    /// Relative difference between the sum of cell volumes and the hull volume.
+    pub volume_rel_error: f64,
+    /// Largest relative coverage error over patches.
+    pub max_coverage_rel_error: f64,
+}
+
+impl CellComplex {
+    /// Checks every invariant listed in the module docs (the model is needed for the
+    /// "no portal crosses a model polygon" check).
+    pub fn validate(&self, model: &Model) -> Result<ComplexValidation, ComplexError> {
+        let tol = &self.tol;
+        let mut v = ComplexValidation::default();
+        let mut vol = 0.0;
+        for (i, c) in self.cells.iter().enumerate() {
+            if !c.alive {
+                continue;
+            }
+            v.cells += 1;
+            c.poly.check(tol).map_err(|why| ComplexError::BadCell { cell: i as u32, why })?;
+            vol += c.poly.volume();
+            for &t in &c.poly.tags {
+                let p = &self.patches[t as usize];
+                if !p.alive {
+                    return Err(ComplexError::Topology { cell: i as u32, patch: t, why: "face names a dead patch" });
+                }
+                if !p.cells.contains(&CellId(i as u32)) {
+                    return Err(ComplexError::Topology { cell: i as u32, patch: t, why: "patch does not list the cell" });
+                }
+            }
+        }
+        v.volume_rel_error = (vol - self.hull_volume).abs() / self.hull_volume;
+        if v.volume_rel_error > 1e-9 {
+            return Err(ComplexError::Volume { sum: vol, hull: self.hull_volume });
+        }
+        for (pi, p) in self.patches.iter().enumerate() {
+            if !p.alive {
+                continue;
+            }
+            v.patches += 1;
+            for &c in &p.cells {
+                if c == HULL {
+                    continue;
+                }
+                let cell = &self.cells[c.idx()];
+                if !cell.alive || !cell.poly.tags.contains(&(pi as u32)) {
+                    return Err(ComplexError::Topology { cell: c.0, patch: pi as u32, why: "cell does not hold the patch" });
+                }
+            }
+            let area = p.polygon.area();
+            let (pieces, _, slivers) = self.open_pieces(PatchId(pi as u32));
+            let open: f64 = pieces.iter().map(|q| q.area()).sum();
+            let occluded: f64 = p.occluders.iter().map(|o| o.polygon.area()).sum();
+            let slack = 4.0 * tol.area_abs() + 1e-9 * area;
+            // Portals never exceed the patch, and occluders cover what is not open.
+            let err = if open > area + slack {
+                open - area
+            } else if open + occluded + slivers < area - slack {
+                area - open - occluded - slivers
+            } else {
+                0.0
+            };
+            if err > 0.0 {
+                return Err(ComplexError::Coverage { patch: pi as u32, area, open, occluded, slivers });
+            }
+            if area > 0.0 {
+                v.max_coverage_rel_error = v.max_coverage_rel_error.max(((open + occluded.min(area - open)) - area).abs() / area);
+            }
+        }
+        let mut seen = std::collections::HashSet::new();
+        for p in &self.portals {
+            let [a, b] = p.cells;
+            if !seen.insert((a, b)) {
+                return Err(ComplexError::Portal { a: a.0, b: b.0, why: "pair listed twice" });
+            }
+            if a >= b || !self.cells[a.idx()].active() || !self.cells[b.idx()].active() {
+                return Err(ComplexError::Portal { a: a.0, b: b.0, why: "unordered pair or inactive cell" });
+            }
+        }
+        self.check_no_crossing(model)?;
+        Ok(v)
+    }
+
+    /// No model polygon crosses the interior of an alive cell by more than the area
+    /// tolerance. Uses a uniform grid over polygon bounding boxes.
+    fn check_no_crossing(&self, model: &Model) -> Result<(), ComplexError> {
+        let tol = &self.tol;
+        let (lo, hi) = model.bbox();
+        let n = model.polygons.len().max(1);
+        let k = ((n as f64).cbrt().ceil() as usize).clamp(1, 64);
+        let size: Vec<f64> = (0..3).map(|a| ((hi[a] - lo[a]) / k as f64).max(1e-300)).collect();
+        let cell_of = |p: &[f64; 3], a: usize| (((p[a] - lo[a]) / size[a]).floor().max(0.0) as usize).min(k - 1);
+        let mut grid: Vec<Vec<u32>> = vec![Vec::new(); k * k * k];
+        let polys: Vec<ConvexPolygon> =
+            model.polygons.iter().map(|p| ConvexPolygon::new(p.verts.iter().map(|v| model.vertices[v.idx()]).collect())).collect();
+        for (i, p) in polys.iter().enumerate() {
+            let (a, b) = bbox(&p.verts);
+            for x in cell_of(&a, 0)..=cell_of(&b, 0) {
+                for y in cell_of(&a, 1)..=cell_of(&b, 1) {
+                    for z in cell_of(&a, 2)..=cell_of(&b, 2) {
+                        grid[(x * k + y) * k + z].push(i as u32);
+                    }
+                }
+            }
+        }
+        let mut stamp = vec![u32::MAX; polys.len()];
+        for (ci, c) in self.cells.iter().enumerate() {
+            if !c.alive {
+                continue;
+            }
+            let (a, b) = c.poly.aabb();
+            for x in cell_of(&a, 0)..=cell_of(&b, 0) {
+                for y in cell_of(&a, 1)..=cell_of(&b, 1) {
+                    for z in cell_of(&a, 2)..=cell_of(&b, 2) {
+                        for &pi in &grid[(x * k + y) * k + z] {
+                            if stamp[pi as usize] == ci as u32 {
+                                continue;
+                            }
+                            stamp[pi as usize] = ci as u32;
+                            let poly = &polys[pi as usize];
+                            let plane = Plane::from_points(&poly.verts[0], &poly.verts[1], &poly.verts[2]);
+                            if c.poly.classify(&plane, tol) != Classification::Straddles {
+                                continue;
+                            }
+                            let mut cur = Some(poly.clone());
+                            for f in c.poly.planes() {
+                                cur = cur.and_then(|q| q.split(&f, tol).1);
+                            }
+                            if let Some(q) = cur {
+                                // Shrink-tolerant: a fragment thinner than the weld distance
+                                // along the cell is a refused sliver, not a crossing.
+                                let area = q.area();
+                                if area > 16.0 * tol.area_abs() {
+                                    return Err(ComplexError::Crossing { polygon: pi, cell: ci as u32, area });
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+fn bbox(v: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in v {
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    (lo, hi)
+}
