@@ -1,0 +1,236 @@
+//! Oriented planes and point/plane classification.
+
+use serde::{Deserialize, Serialize};
+
+use super::vec::{cross, dot_minus, norm, scale, sub};
+use crate::predicates::P3;
+use crate::tolerances::Tolerances;
+
+/// Oriented plane `n·x = d`; `n` need not be unit length. The *front* (positive) side is
+/// where `n·x > d`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Plane {
+    /// Normal (any non-zero length).
+    pub n: [f64; 3],
+    /// Offset: the plane is `n·x = d`.
+    pub d: f64,
+}
+
+/// Position of a point relative to a plane, decided with tolerance
+/// [`Tolerances::plane_abs`] on the (normalized) signed distance.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Side {
+    /// Signed distance `> plane_abs`.
+    Front,
+    /// Signed distance `< -plane_abs`.
+    Back,
+    /// `|signed distance| <= plane_abs` (also: degenerate plane or non-finite distance).
+    On,
+}
+
+/// Position of a point set (polygon, polyhedron) relative to a plane.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Classification {
+    /// Some point strictly front, none strictly back (the rest [`Side::On`]).
+    Front,
+    /// Some point strictly back, none strictly front.
+    Back,
+    /// Every point [`Side::On`].
+    Coplanar,
+    /// Some point strictly front and some strictly back.
+    Straddles,
+}
+
+impl Classification {
+    /// Fold the sides of a point set.
+    pub fn from_sides(sides: impl IntoIterator<Item = Side>) -> Self {
+        let (mut f, mut b) = (false, false);
+        for s in sides {
+            match s {
+                Side::Front => f = true,
+                Side::Back => b = true,
+                Side::On => {}
+            }
+        }
+        match (f, b) {
+            (true, true) => Classification::Straddles,
+            (true, false) => Classification::Front,
+            (false, true) => Classification::Back,
+            (false, false) => Classification::Coplanar,
+        }
+    }
+}
+
+impl Plane {
+    /// Plane with normal `n` and offset `d`.
+    pub fn new(n: [f64; 3], d: f64) -> Self {
+        Plane { n, d }
+    }
+
+    /// Plane through `a, b, c` with `n = (b-a)×(c-a)`: the front side is where `a, b, c`
+    /// appear counter-clockwise, i.e. `orient3d(a, b, c, p) > 0` ⇔ `p` in front (up to
+    /// rounding). Degenerate (zero normal) when the points are collinear.
+    pub fn from_points(a: &P3, b: &P3, c: &P3) -> Self {
+        let n = cross(&sub(b, a), &sub(c, a));
+        Plane {
+            n,
+            d: dot_minus(&n, a, 0.0),
+        }
+    }
+
+    /// Plane with normal `n` through `p`.
+    pub fn from_normal_point(n: [f64; 3], p: &P3) -> Self {
+        Plane {
+            n,
+            d: dot_minus(&n, p, 0.0),
+        }
+    }
+
+    /// `n·p - d`, unnormalized (compensated evaluation).
+    #[inline]
+    pub fn eval(&self, p: &P3) -> f64 {
+        dot_minus(&self.n, p, self.d)
+    }
+
+    /// Euclidean signed distance of `p` (positive in front). NaN for a degenerate plane.
+    #[inline]
+    pub fn signed_distance(&self, p: &P3) -> f64 {
+        self.eval(p) / norm(&self.n)
+    }
+
+    /// Same plane, opposite orientation.
+    pub fn flipped(&self) -> Self {
+        Plane {
+            n: [-self.n[0], -self.n[1], -self.n[2]],
+            d: -self.d,
+        }
+    }
+
+    /// Same plane with a unit normal (unchanged if degenerate).
+    pub fn normalized(&self) -> Self {
+        let l = norm(&self.n);
+        if l > 0.0 && l.is_finite() {
+            Plane {
+                n: scale(&self.n, 1.0 / l),
+                d: self.d / l,
+            }
+        } else {
+            *self
+        }
+    }
+
+    /// Unit normal (zero if degenerate).
+    pub fn unit_normal(&self) -> [f64; 3] {
+        super::vec::normalize(&self.n)
+    }
+
+    /// True when the normal is zero or not finite (such a plane classifies everything On).
+    pub fn is_degenerate(&self) -> bool {
+        let l = norm(&self.n);
+        !(l > 0.0 && l.is_finite() && self.d.is_finite())
+    }
+
+    /// Side of `p` with tolerance `tol.plane_abs()`.
+    pub fn side(&self, p: &P3, tol: &Tolerances) -> Side {
+        Classifier::new(self, tol).side_of(self.signed_distance(p))
+    }
+}
+
+/// A plane prepared for many distance queries with one tolerance.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Classifier {
+    plane: Plane,
+    inv_len: f64,
+    pub(crate) eps: f64,
+}
+
+impl Classifier {
+    pub(crate) fn new(plane: &Plane, tol: &Tolerances) -> Self {
+        let l = norm(&plane.n);
+        let inv_len = if l > 0.0 && l.is_finite() { 1.0 / l } else { f64::NAN };
+        Classifier {
+            plane: *plane,
+            inv_len,
+            eps: tol.plane_abs(),
+        }
+    }
+
+    /// Signed distance (NaN for a degenerate plane).
+    #[inline]
+    pub(crate) fn dist(&self, p: &P3) -> f64 {
+        self.plane.eval(p) * self.inv_len
+    }
+
+    /// Side for a distance; NaN maps to On.
+    #[inline]
+    pub(crate) fn side_of(&self, d: f64) -> Side {
+        if d > self.eps {
+            Side::Front
+        } else if d < -self.eps {
+            Side::Back
+        } else {
+            Side::On
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::testutil::{Rng, frames};
+    use super::*;
+    use crate::predicates::orient3d;
+
+    #[test]
+    fn orientation_matches_orient3d() {
+        let mut rng = Rng::new(7);
+        for _ in 0..2000 {
+            let a = rng.point(10.0);
+            let b = rng.point(10.0);
+            let c = rng.point(10.0);
+            let p = rng.point(10.0);
+            let pl = Plane::from_points(&a, &b, &c);
+            let o = orient3d(&a, &b, &c, &p);
+            let s = pl.signed_distance(&p);
+            if s.abs() > 1e-9 {
+                assert_eq!(o, if s > 0.0 { 1 } else { -1 });
+            }
+        }
+    }
+
+    #[test]
+    fn distance_is_normalized_and_flip_negates() {
+        let pl = Plane::from_points(&[0.0, 0.0, 2.0], &[3.0, 0.0, 2.0], &[0.0, 5.0, 2.0]);
+        assert_eq!(pl.n, [0.0, 0.0, 15.0]);
+        assert_eq!(pl.signed_distance(&[7.0, -3.0, 5.0]), 3.0);
+        assert_eq!(pl.flipped().signed_distance(&[7.0, -3.0, 5.0]), -3.0);
+        assert_eq!(pl.normalized().n, [0.0, 0.0, 1.0]);
+        assert_eq!(pl.normalized().d, 2.0);
+        let tol = Tolerances::for_scale(1.0);
+        assert_eq!(pl.side(&[1.0, 1.0, 2.0 + 1e-12], &tol), Side::On);
+        assert_eq!(pl.side(&[1.0, 1.0, 2.0 + 1e-6], &tol), Side::Front);
+        assert_eq!(pl.flipped().side(&[1.0, 1.0, 2.0 + 1e-6], &tol), Side::Back);
+        let deg = Plane::from_points(&[0.0; 3], &[1.0, 1.0, 1.0], &[2.0, 2.0, 2.0]);
+        assert!(deg.is_degenerate());
+        assert_eq!(deg.side(&[5.0, 0.0, 0.0], &tol), Side::On);
+    }
+
+    #[test]
+    fn on_plane_points_stay_on_in_every_frame() {
+        // Points of a unit-square grid lie on the plane through three of its corners, in
+        // every frame (rotation by 7°, 8°, 9° and offset 1e6 included); points lifted by
+        // 10 plane tolerances are Front.
+        for (fr, tol) in frames(2.0f64.sqrt()) {
+            let c = |x: f64, y: f64, z: f64| fr.apply([x, y, z]);
+            let pl = Plane::from_points(&c(0.0, 0.0, 0.0), &c(1.0, 0.0, 0.0), &c(0.0, 1.0, 0.0));
+            let lift = 10.0 * tol.plane_abs() / fr.scale;
+            for i in 0..=8 {
+                for j in 0..=8 {
+                    let (x, y) = (i as f64 / 8.0, j as f64 / 8.0);
+                    assert_eq!(pl.side(&c(x, y, 0.0), &tol), Side::On, "{}", fr.name);
+                    assert_eq!(pl.side(&c(x, y, lift), &tol), Side::Front, "{}", fr.name);
+                    assert_eq!(pl.side(&c(x, y, -lift), &tol), Side::Back, "{}", fr.name);
+                }
+            }
+        }
+    }
+}

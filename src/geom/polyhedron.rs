@@ -1,0 +1,954 @@
+//! Convex polyhedra as boundary representations that are cheap to split.
+
+use std::collections::{HashMap, HashSet};
+
+use serde::{Deserialize, Serialize};
+
+use super::plane::{Classification, Classifier, Plane, Side};
+use super::polygon::{ConvexPolygon, FacePlane, crossing, walk_split};
+use super::vec::{Key, add, axes, cross, dot, key, scale, sub};
+use crate::predicates::{P3, orient3d};
+use crate::tolerances::Tolerances;
+
+/// A convex polyhedron given by its boundary: convex polygons with outward normals.
+///
+/// The boundary may be *subdivided*: several coplanar faces (patches) may tile one facet,
+/// and faces may carry collinear T-vertices. See the module docs of [`crate::geom`] for
+/// the invariants (closed and conforming: every directed edge `p → q` of a face occurs
+/// reversed, `q → p`, in exactly one other face, with bit-identical coordinates).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ConvexPolyhedron {
+    /// Boundary faces, counter-clockwise seen from outside.
+    pub faces: Vec<ConvexPolygon>,
+    /// One caller-defined tag per face (`tags.len() == faces.len()`), carried through
+    /// [`cut`](ConvexPolyhedron::cut) and [`split_face`](ConvexPolyhedron::split_face).
+    pub tags: Vec<u32>,
+}
+
+/// The two pieces of a polyhedron split by a plane.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PolyhedronSplit {
+    /// The part on the front (positive) side of the plane.
+    pub front: ConvexPolyhedron,
+    /// The part on the back side.
+    pub back: ConvexPolyhedron,
+    /// The cross-section, oriented with its normal along the plane normal `n`: it is the
+    /// back piece's new face (outward = towards the front). The front piece holds the
+    /// same polygon reversed. Both use the very same vertices as the pieces' other faces.
+    pub section: ConvexPolygon,
+    /// For each face of `front`: the index of the input face it is (part of), or `None`
+    /// for the cross-section (always the last face).
+    pub front_origin: Vec<Option<usize>>,
+    /// As `front_origin`, for `back`.
+    pub back_origin: Vec<Option<usize>>,
+}
+
+/// Outcome of [`ConvexPolyhedron::cut`].
+#[derive(Clone, Debug, PartialEq)]
+pub enum Cut {
+    /// Not split; the polyhedron counts as in front of the plane.
+    Front,
+    /// Not split; the polyhedron counts as behind the plane.
+    Back,
+    /// Genuinely split into two non-sliver pieces.
+    Split(Box<PolyhedronSplit>),
+}
+
+/// Smallest volume a piece of a split may have: `(tol.area · tol.scale)³`, i.e.
+/// `tol.area_abs()^{3/2}` — the cube over the side of the smallest accepted area.
+pub fn min_volume(tol: &Tolerances) -> f64 {
+    let l = tol.area * tol.scale;
+    l * l * l
+}
+
+impl ConvexPolyhedron {
+    /// From faces and tags (not checked; see [`check`](Self::check)).
+    pub fn from_faces(faces: Vec<ConvexPolygon>, tags: Vec<u32>) -> Self {
+        assert_eq!(faces.len(), tags.len(), "one tag per face");
+        ConvexPolyhedron { faces, tags }
+    }
+
+    /// Tetrahedron `abcd`. Expects `orient3d(a, b, c, d) > 0`; a negatively oriented
+    /// input is fixed by swapping `a` and `b`. Face `k` (tag `k`) is the one opposite
+    /// the `k`-th input vertex (`a, b, c, d`, after the swap if any).
+    pub fn tetrahedron(a: &P3, b: &P3, c: &P3, d: &P3) -> Self {
+        let (a, b) = if orient3d(a, b, c, d) < 0 { (b, a) } else { (a, b) };
+        let f = |p: &P3, q: &P3, r: &P3| ConvexPolygon::new(vec![*p, *q, *r]);
+        ConvexPolyhedron {
+            faces: vec![f(b, c, d), f(a, d, c), f(a, b, d), f(a, c, b)],
+            tags: vec![0, 1, 2, 3],
+        }
+    }
+
+    /// Axis-aligned box. Faces/tags in the order −x, +x, −y, +y, −z, +z (tags 0..6).
+    pub fn cuboid(lo: &P3, hi: &P3) -> Self {
+        let p = |x: usize, y: usize, z: usize| -> P3 { [[lo[0], hi[0]][x], [lo[1], hi[1]][y], [lo[2], hi[2]][z]] };
+        let q = |v: [P3; 4]| ConvexPolygon::new(v.to_vec());
+        ConvexPolyhedron {
+            faces: vec![
+                q([p(0, 0, 0), p(0, 0, 1), p(0, 1, 1), p(0, 1, 0)]),
+                q([p(1, 0, 0), p(1, 1, 0), p(1, 1, 1), p(1, 0, 1)]),
+                q([p(0, 0, 0), p(1, 0, 0), p(1, 0, 1), p(0, 0, 1)]),
+                q([p(0, 1, 0), p(0, 1, 1), p(1, 1, 1), p(1, 1, 0)]),
+                q([p(0, 0, 0), p(0, 1, 0), p(1, 1, 0), p(1, 0, 0)]),
+                q([p(0, 0, 1), p(1, 0, 1), p(1, 1, 1), p(0, 1, 1)]),
+            ],
+            tags: (0..6).collect(),
+        }
+    }
+
+    fn reference(&self) -> P3 {
+        self.faces
+            .iter()
+            .find_map(|f| f.verts.first().copied())
+            .unwrap_or([0.0; 3])
+    }
+
+    /// `(volume, centroid)`: sums over the tetrahedra joining a reference vertex to a fan
+    /// triangulation of each face (valid for subdivided boundaries).
+    fn moments(&self) -> (f64, P3) {
+        let r = self.reference();
+        let mut v6 = 0.0;
+        let mut m = [0.0; 3];
+        for f in &self.faces {
+            let v = &f.verts;
+            if v.len() < 3 {
+                continue;
+            }
+            let a = sub(&v[0], &r);
+            let mut prev = sub(&v[1], &r);
+            for p in &v[2..] {
+                let cur = sub(p, &r);
+                let t = dot(&a, &cross(&prev, &cur));
+                v6 += t;
+                m = add(&m, &scale(&add(&a, &add(&prev, &cur)), t));
+                prev = cur;
+            }
+        }
+        let c = if v6 != 0.0 { add(&r, &scale(&m, 0.25 / v6)) } else { r };
+        (v6 / 6.0, c)
+    }
+
+    /// Volume (positive for outward-oriented faces).
+    pub fn volume(&self) -> f64 {
+        self.moments().0
+    }
+
+    /// Volume centroid.
+    pub fn centroid(&self) -> P3 {
+        self.moments().1
+    }
+
+    /// Total area of the boundary faces.
+    pub fn surface_area(&self) -> f64 {
+        self.faces.iter().map(|f| f.area()).sum()
+    }
+
+    /// Distinct vertices (exact coordinates), in order of first appearance.
+    pub fn vertices(&self) -> Vec<P3> {
+        let mut seen = HashSet::new();
+        let mut out = vec![];
+        for f in &self.faces {
+            for v in &f.verts {
+                if seen.insert(key(v)) {
+                    out.push(*v);
+                }
+            }
+        }
+        out
+    }
+
+    /// Axis-aligned bounding box `(lo, hi)`.
+    pub fn aabb(&self) -> (P3, P3) {
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for f in &self.faces {
+            for v in &f.verts {
+                for k in 0..3 {
+                    lo[k] = lo[k].min(v[k]);
+                    hi[k] = hi[k].max(v[k]);
+                }
+            }
+        }
+        (lo, hi)
+    }
+
+    /// Outward face planes (unit normals), one per face — coplanar patches give
+    /// (nearly) equal planes. Inside is where every `signed_distance <= 0`.
+    pub fn planes(&self) -> Vec<Plane> {
+        self.faces.iter().map(|f| f.plane()).collect()
+    }
+
+    /// True when `p` is inside or within tolerance of every face plane. The tolerance is
+    /// `tol.plane_abs()` plus the face plane's own rounding uncertainty (see
+    /// [`check`](Self::check)); faces with area below `tol.area_abs()` are ignored.
+    pub fn contains(&self, p: &P3, tol: &Tolerances) -> bool {
+        self.faces.iter().filter_map(|f| FacePlane::new(f, tol)).all(|fp| {
+            let (d, slack) = fp.test(p, tol);
+            d <= slack
+        })
+    }
+
+    /// Classify the vertices against `plane` (tolerance `tol.plane_abs()`):
+    /// [`Classification::Straddles`] iff some vertex is strictly in front and some strictly
+    /// behind. (This is the raw test; [`cut`](Self::cut) may still refuse to split.)
+    pub fn classify(&self, plane: &Plane, tol: &Tolerances) -> Classification {
+        let c = Classifier::new(plane, tol);
+        Classification::from_sides(self.vertices().iter().map(|p| c.side_of(c.dist(p))))
+    }
+
+    /// The part of `poly` inside this polyhedron (e.g. a model polygon clipped to a cell:
+    /// an occluder). `poly` is split by every face plane (faces with area below
+    /// `tol.area_abs()` are skipped; coplanar patches repeat a plane harmlessly) and its
+    /// back part kept; a polygon lying *on* a face plane (all vertices within
+    /// `tol.plane_abs()`) is kept whole by that plane, so polygons on the boundary survive
+    /// (clipped to the face region by the other planes). `None` if the result has area
+    /// below `tol.area_abs()`. The result keeps `poly`'s orientation.
+    pub fn clip_polygon(&self, poly: &ConvexPolygon, tol: &Tolerances) -> Option<ConvexPolygon> {
+        use super::polygon::PolygonSplit;
+        let mut cur = poly.clone();
+        for f in &self.faces {
+            if f.area() < tol.area_abs() {
+                continue;
+            }
+            match cur.split_exact(&f.plane(), tol) {
+                PolygonSplit::Front => return None,
+                PolygonSplit::Back | PolygonSplit::Coplanar => {}
+                PolygonSplit::Split(_, b) => cur = b,
+            }
+        }
+        (cur.area() >= tol.area_abs()).then_some(cur)
+    }
+
+    /// Split by `plane`; see [`cut`](Self::cut). `None` when not split.
+    pub fn split(&self, plane: &Plane, tol: &Tolerances, new_tag: u32) -> Option<PolyhedronSplit> {
+        match self.cut(plane, tol, new_tag) {
+            Cut::Split(s) => Some(*s),
+            _ => None,
+        }
+    }
+
+    /// Cut by `plane` into front and back pieces, or decide which side the whole lies on.
+    ///
+    /// Every distinct vertex is classified once (Front/Back/On, tolerance
+    /// `tol.plane_abs()`); both pieces are built from that one classification. On
+    /// vertices go to both pieces; each crossed edge gets one new vertex (canonical
+    /// interpolation, cached), shared by both faces along that edge, by both pieces and
+    /// by the cross-section, so conforming input gives conforming output. Faces keep
+    /// their tags; the cross-section gets `new_tag`.
+    ///
+    /// Not split (returns the side holding the polyhedron, or its larger part) when:
+    /// - no vertex is strictly on one side (the plane misses or grazes: touches a vertex,
+    ///   an edge or a face);
+    /// - a side's farthest vertex is closer than `max(tol.weld_abs(), tol.plane_abs())`
+    ///   (a slab thinner than the weld distance);
+    /// - the cross-section area is below `tol.area_abs()`;
+    /// - a piece's volume is below [`min_volume`]`(tol)`;
+    /// - degenerate input: a face lies entirely on the plane, or fewer than 3 section
+    ///   points.
+    pub fn cut(&self, plane: &Plane, tol: &Tolerances, new_tag: u32) -> Cut {
+        let cl = Classifier::new(plane, tol);
+        let eps = cl.eps;
+        let mut dist: HashMap<Key, f64> = HashMap::new();
+        let (mut maxf, mut maxb) = (0.0f64, 0.0f64);
+        for f in &self.faces {
+            for v in &f.verts {
+                let d = *dist.entry(key(v)).or_insert_with(|| cl.dist(v));
+                if d > maxf {
+                    maxf = d;
+                }
+                if -d > maxb {
+                    maxb = -d;
+                }
+            }
+        }
+        let larger = if maxf > maxb { Cut::Front } else { Cut::Back };
+        if !(maxb > eps) {
+            return if maxf > eps { Cut::Front } else { larger };
+        }
+        if !(maxf > eps) {
+            return Cut::Back;
+        }
+        let thick = tol.weld_abs().max(eps);
+        if maxf < thick || maxb < thick {
+            return larger;
+        }
+
+        let nf = self.faces.len();
+        let (mut ff, mut ft, mut fo) = (
+            Vec::with_capacity(nf + 1),
+            Vec::with_capacity(nf + 1),
+            Vec::with_capacity(nf + 1),
+        );
+        let (mut bf, mut bt, mut bo) = (
+            Vec::with_capacity(nf + 1),
+            Vec::with_capacity(nf + 1),
+            Vec::with_capacity(nf + 1),
+        );
+        let mut xs: HashMap<(Key, Key), usize> = HashMap::new();
+        let mut pts: Vec<P3> = vec![]; // On vertices and crossing points, first-seen order
+        let mut seen: HashSet<Key> = HashSet::new();
+        for (fi, face) in self.faces.iter().enumerate() {
+            let v = &face.verts;
+            let ds: Vec<f64> = v.iter().map(|p| dist[&key(p)]).collect();
+            let sides: Vec<Side> = ds.iter().map(|&d| cl.side_of(d)).collect();
+            for (p, s) in v.iter().zip(&sides) {
+                if *s == Side::On && seen.insert(key(p)) {
+                    pts.push(*p);
+                }
+            }
+            let tag = self.tags[fi];
+            match Classification::from_sides(sides.iter().copied()) {
+                Classification::Coplanar => return larger,
+                Classification::Front => {
+                    ff.push(face.clone());
+                    ft.push(tag);
+                    fo.push(Some(fi));
+                }
+                Classification::Back => {
+                    bf.push(face.clone());
+                    bt.push(tag);
+                    bo.push(Some(fi));
+                }
+                Classification::Straddles => {
+                    let (f, b) = walk_split(v, &sides, |i, j| {
+                        let (ki, kj) = (key(&v[i]), key(&v[j]));
+                        let k = if ki <= kj { (ki, kj) } else { (kj, ki) };
+                        let idx = *xs.entry(k).or_insert_with(|| {
+                            let x = crossing(&v[i], ds[i], &v[j], ds[j]);
+                            if seen.insert(key(&x)) {
+                                pts.push(x);
+                            }
+                            pts.len() - 1
+                        });
+                        pts[idx]
+                    });
+                    ff.push(ConvexPolygon::new(f));
+                    ft.push(tag);
+                    fo.push(Some(fi));
+                    bf.push(ConvexPolygon::new(b));
+                    bt.push(tag);
+                    bo.push(Some(fi));
+                }
+            }
+        }
+
+        let Some(section) = order_on_plane(pts, &plane.n) else {
+            return larger;
+        };
+        if !(section.area() >= tol.area_abs()) {
+            return larger;
+        }
+        ff.push(section.reversed());
+        ft.push(new_tag);
+        fo.push(None);
+        bf.push(section.clone());
+        bt.push(new_tag);
+        bo.push(None);
+        let front = ConvexPolyhedron { faces: ff, tags: ft };
+        let back = ConvexPolyhedron { faces: bf, tags: bt };
+        let (vf, vb) = (front.volume(), back.volume());
+        if !(vf.min(vb) >= min_volume(tol)) {
+            return if vf >= vb { Cut::Front } else { Cut::Back };
+        }
+        Cut::Split(Box::new(PolyhedronSplit {
+            front,
+            back,
+            section,
+            front_origin: fo,
+            back_origin: bo,
+        }))
+    }
+
+    /// Subdivide face `i` into two coplanar patches along `plane` (typically: the cell
+    /// across face `i` was split by `plane`). Face `i` becomes the front part with
+    /// `front_tag`; the back part is appended with `back_tag`; its index is returned.
+    /// The new vertices are also inserted into the neighbouring faces' edges (as
+    /// collinear T-vertices), so the boundary stays conforming. Returns `None` (and
+    /// changes nothing) unless the face straddles the plane (tolerance
+    /// `tol.plane_abs()`); no area test is applied, so either patch may be small.
+    pub fn split_face(
+        &mut self,
+        i: usize,
+        plane: &Plane,
+        tol: &Tolerances,
+        front_tag: u32,
+        back_tag: u32,
+    ) -> Option<usize> {
+        let cl = Classifier::new(plane, tol);
+        let v = self.faces[i].verts.clone();
+        let ds: Vec<f64> = v.iter().map(|p| cl.dist(p)).collect();
+        let sides: Vec<Side> = ds.iter().map(|&d| cl.side_of(d)).collect();
+        if Classification::from_sides(sides.iter().copied()) != Classification::Straddles {
+            return None;
+        }
+        // Keyed by the edge as the neighbouring face sees it (reversed).
+        let mut ins: HashMap<(Key, Key), P3> = HashMap::new();
+        let (f, b) = walk_split(&v, &sides, |a, c| {
+            let x = crossing(&v[a], ds[a], &v[c], ds[c]);
+            ins.insert((key(&v[c]), key(&v[a])), x);
+            x
+        });
+        self.faces[i] = ConvexPolygon::new(f);
+        self.tags[i] = front_tag;
+        for (g, face) in self.faces.iter_mut().enumerate() {
+            if g == i {
+                continue;
+            }
+            let n = face.verts.len();
+            let hit = (0..n).any(|k| ins.contains_key(&(key(&face.verts[k]), key(&face.verts[(k + 1) % n]))));
+            if !hit {
+                continue;
+            }
+            let mut nv = Vec::with_capacity(n + 2);
+            for k in 0..n {
+                let (p, q) = (&face.verts[k], &face.verts[(k + 1) % n]);
+                nv.push(*p);
+                if let Some(x) = ins.get(&(key(p), key(q))) {
+                    nv.push(*x);
+                }
+            }
+            face.verts = nv;
+        }
+        self.faces.push(ConvexPolygon::new(b));
+        self.tags.push(back_tag);
+        Some(self.faces.len() - 1)
+    }
+
+    /// Check the invariants; `Err` describes the first violation found:
+    /// one tag per face; ≥ 4 faces of ≥ 3 vertices without repeated consecutive vertices;
+    /// closed and conforming (every directed edge used once, its reverse once, exact
+    /// coordinates); positive volume; convex: every vertex lies behind the plane of every
+    /// face whose area is at least `tol.area_abs()`, within `tol.plane_abs()` plus that
+    /// plane's rounding uncertainty. (A face's plane is only as good as its vertices:
+    /// with coordinate rounding unit `u = ε·max|coord|` and face width
+    /// `w = 2·area/perimeter`, its normal is uncertain by ~`u/w`, so the allowance at a
+    /// point `p` is `8u(1 + |p − centroid|/w)` — e.g. ~1e-7 for a 1 cm wide face of a
+    /// 1 km model at 1e6 offset.)
+    pub fn check(&self, tol: &Tolerances) -> Result<(), String> {
+        if self.faces.len() != self.tags.len() {
+            return Err(format!("{} faces but {} tags", self.faces.len(), self.tags.len()));
+        }
+        if self.faces.len() < 4 {
+            return Err(format!("only {} faces", self.faces.len()));
+        }
+        let mut edges: HashMap<(Key, Key), u32> = HashMap::new();
+        for (fi, f) in self.faces.iter().enumerate() {
+            let n = f.verts.len();
+            if n < 3 {
+                return Err(format!("face {fi} has {n} vertices"));
+            }
+            for k in 0..n {
+                let (a, b) = (key(&f.verts[k]), key(&f.verts[(k + 1) % n]));
+                if a == b {
+                    return Err(format!("face {fi} repeats vertex {:?}", f.verts[k]));
+                }
+                *edges.entry((a, b)).or_default() += 1;
+            }
+        }
+        for (&(a, b), &c) in &edges {
+            if c != 1 {
+                return Err(format!("directed edge {a:?}->{b:?} used {c} times"));
+            }
+            if edges.get(&(b, a)) != Some(&1) {
+                return Err(format!("edge {a:?}->{b:?} has no reverse (open or T-junction)"));
+            }
+        }
+        let vol = self.volume();
+        if !(vol > 0.0) {
+            return Err(format!("volume {vol}"));
+        }
+        let verts = self.vertices();
+        for (fi, f) in self.faces.iter().enumerate() {
+            let Some(fp) = FacePlane::new(f, tol) else { continue };
+            for p in &verts {
+                let (d, slack) = fp.test(p, tol);
+                if d > slack {
+                    return Err(format!("vertex {p:?} is {d:e} (> {slack:e}) in front of face {fi}"));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Order points lying on a plane (the boundary points of a convex cross-section)
+/// counter-clockwise around the normal `n`, by angle about their mean. `None` for fewer
+/// than 3 points or a degenerate normal.
+fn order_on_plane(pts: Vec<P3>, n: &P3) -> Option<ConvexPolygon> {
+    if pts.len() < 3 {
+        return None;
+    }
+    let (i, j, _) = axes(n)?;
+    let o = pts[0];
+    let uv: Vec<[f64; 2]> = pts.iter().map(|p| [p[i] - o[i], p[j] - o[j]]).collect();
+    let m = uv.len() as f64;
+    let c = uv.iter().fold([0.0, 0.0], |s, p| [s[0] + p[0] / m, s[1] + p[1] / m]);
+    let ang: Vec<f64> = uv.iter().map(|p| (p[1] - c[1]).atan2(p[0] - c[0])).collect();
+    let mut idx: Vec<usize> = (0..pts.len()).collect();
+    idx.sort_by(|&a, &b| ang[a].total_cmp(&ang[b]).then(a.cmp(&b)));
+    Some(ConvexPolygon::new(idx.into_iter().map(|k| pts[k]).collect()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::testutil::{Frame, Rng, frames};
+    use super::super::vec::norm;
+    use super::*;
+
+    fn rel(a: f64, b: f64) -> f64 {
+        (a - b).abs() / b.abs().max(1e-300)
+    }
+
+    fn assert_close(a: f64, b: f64, r: f64, what: &str) {
+        assert!(rel(a, b) <= r, "{what}: {a} vs {b} (rel {:e})", rel(a, b));
+    }
+
+    fn cube(fr: &Frame) -> ConvexPolyhedron {
+        // Built in local coordinates, then every vertex mapped (the same local corner
+        // always maps to the same bits, so the B-rep stays conforming).
+        let mut c = ConvexPolyhedron::cuboid(&[0.0; 3], &[1.0; 3]);
+        for f in &mut c.faces {
+            for v in &mut f.verts {
+                *v = fr.apply(*v);
+            }
+        }
+        c
+    }
+
+    fn tet(fr: &Frame) -> ConvexPolyhedron {
+        let p = |x, y, z| fr.apply([x, y, z]);
+        ConvexPolyhedron::tetrahedron(
+            &p(0.0, 0.0, 0.0),
+            &p(1.0, 0.0, 0.0),
+            &p(0.0, 1.0, 0.0),
+            &p(0.0, 0.0, 1.0),
+        )
+    }
+
+    #[test]
+    fn tetrahedron_basics() {
+        for (fr, tol) in frames(2.0f64.sqrt()) {
+            let t = tet(&fr);
+            t.check(&tol).unwrap();
+            assert_close(t.volume(), fr.volume(1.0 / 6.0), 1e-9, fr.name);
+            let c = t.centroid();
+            assert!(norm(&sub(&c, &fr.apply([0.25; 3]))) < 1e-9 * fr.scale, "{}", fr.name);
+            assert_eq!(t.vertices().len(), 4);
+            // Outward: the opposite vertex is behind each face; face k is opposite vertex k.
+            let vs = [
+                fr.apply([0.0; 3]),
+                fr.apply([1.0, 0.0, 0.0]),
+                fr.apply([0.0, 1.0, 0.0]),
+                fr.apply([0.0, 0.0, 1.0]),
+            ];
+            for (k, pl) in t.planes().iter().enumerate() {
+                assert!(pl.signed_distance(&vs[k]) < -0.5 * fr.scale);
+            }
+            assert!(t.contains(&c, &tol));
+            assert!(t.contains(&vs[3], &tol));
+            assert!(!t.contains(&fr.apply([0.5, 0.5, 0.5]), &tol));
+            assert!(!t.contains(&fr.apply([-1e-6, 0.1, 0.1]), &tol));
+            // Negatively oriented input is fixed.
+            let neg = ConvexPolyhedron::tetrahedron(&vs[1], &vs[0], &vs[2], &vs[3]);
+            neg.check(&tol).unwrap();
+            assert_close(neg.volume(), fr.volume(1.0 / 6.0), 1e-9, fr.name);
+            assert_close(t.surface_area(), fr.area(1.5 + 3f64.sqrt() / 2.0), 1e-9, fr.name);
+        }
+    }
+
+    #[test]
+    fn cube_split_in_half() {
+        for (fr, tol) in frames(3f64.sqrt()) {
+            let c = cube(&fr);
+            c.check(&tol).unwrap();
+            assert_close(c.volume(), fr.volume(1.0), 1e-9, fr.name);
+            assert_eq!(c.vertices().len(), 8);
+            let pl = fr.plane([1.0, 0.0, 0.0], [0.5, 0.0, 0.0]);
+            assert_eq!(c.classify(&pl, &tol), Classification::Straddles);
+            let s = c.split(&pl, &tol, 99).expect("split");
+            for (p, name) in [(&s.front, "front"), (&s.back, "back")] {
+                p.check(&tol).unwrap_or_else(|e| panic!("{}: {name}: {e}", fr.name));
+                assert_close(p.volume(), fr.volume(0.5), 1e-9, fr.name);
+                assert_eq!(p.faces.len(), 6);
+                assert_eq!(p.vertices().len(), 8);
+                assert_eq!(*p.tags.last().unwrap(), 99);
+            }
+            assert_close(s.section.area(), fr.area(1.0), 1e-9, fr.name);
+            assert!(dot(&s.section.normal(), &pl.unit_normal()) > 1.0 - 1e-12);
+            assert_eq!(s.back.faces.last().unwrap(), &s.section);
+            assert_eq!(s.front.faces.last().unwrap(), &s.section.reversed());
+            // Front holds +x (tag 1) whole, back holds −x (tag 0); y/z faces are halved.
+            assert!(s.front.tags.contains(&1) && !s.front.tags.contains(&0));
+            assert!(s.back.tags.contains(&0) && !s.back.tags.contains(&1));
+            assert_eq!(s.front_origin.len(), 6);
+            assert_eq!(s.front_origin[5], None);
+            for (k, o) in s.front_origin.iter().enumerate().take(5) {
+                assert_eq!(s.front.tags[k], c.tags[o.unwrap()]);
+            }
+            // Centroids.
+            assert!(norm(&sub(&s.front.centroid(), &fr.apply([0.75, 0.5, 0.5]))) < 1e-9 * fr.scale);
+            assert!(norm(&sub(&s.back.centroid(), &fr.apply([0.25, 0.5, 0.5]))) < 1e-9 * fr.scale);
+            // The section's vertices are exactly the pieces' vertices on the plane.
+            for v in &s.section.verts {
+                assert!(s.front.vertices().contains(v) && s.back.vertices().contains(v));
+            }
+            // Flipped plane swaps the pieces.
+            let s2 = c.split(&pl.flipped(), &tol, 7).unwrap();
+            assert_close(s2.front.volume(), fr.volume(0.5), 1e-9, fr.name);
+            assert!(s2.front.tags.contains(&0));
+        }
+    }
+
+    #[test]
+    fn grazing_and_sliver_planes_do_not_split() {
+        for (fr, tol) in frames(3f64.sqrt()) {
+            let c = cube(&fr);
+            let t = |n: P3, p: P3| c.cut(&fr.plane(n, p), &tol, 0);
+            // Through a vertex, an edge, a face (both orientations), outside.
+            assert_eq!(t([1.0, 1.0, 1.0], [0.0; 3]), Cut::Front, "{}", fr.name);
+            assert_eq!(t([-1.0, -1.0, -1.0], [0.0; 3]), Cut::Back);
+            assert_eq!(t([1.0, 1.0, 0.0], [1.0, 1.0, 0.0]), Cut::Back);
+            assert_eq!(t([1.0, 0.0, 0.0], [1.0, 0.0, 0.0]), Cut::Back);
+            assert_eq!(t([1.0, 0.0, 0.0], [0.0, 0.0, 0.0]), Cut::Front);
+            assert_eq!(t([0.0, 0.0, 1.0], [0.0, 0.0, 5.0]), Cut::Back);
+            assert_eq!(
+                c.classify(&fr.plane([1.0, 1.0, 0.0], [1.0, 1.0, 0.0]), &tol),
+                Classification::Back
+            );
+            // Within the plane tolerance of a face: grazing.
+            assert_eq!(t([1.0, 0.0, 0.0], [1.0 - 1e-11, 0.0, 0.0]), Cut::Back);
+            // Slab thinner than the weld distance (1e-7 · diag): refused, bulk side.
+            assert_eq!(t([1.0, 0.0, 0.0], [1.0 - 1e-8, 0.0, 0.0]), Cut::Back, "{}", fr.name);
+            assert_eq!(t([-1.0, 0.0, 0.0], [1.0 - 1e-8, 0.0, 0.0]), Cut::Front);
+            // Thicker slab: split.
+            let s = c
+                .split(&fr.plane([1.0, 0.0, 0.0], [1.0 - 1e-5, 0.0, 0.0]), &tol, 0)
+                .unwrap();
+            assert_close(s.front.volume(), fr.volume(1e-5), 1e-4, fr.name);
+            s.front.check(&tol).unwrap();
+            s.back.check(&tol).unwrap();
+            // Corner cap with legs 3e-4 (volume 4.5e-12 > min_volume ≈ 5.2e-15): split.
+            let s = c
+                .split(&fr.plane([1.0, 1.0, 1.0], [1.0 - 3e-4, 1.0, 1.0]), &tol, 0)
+                .unwrap();
+            assert_close(s.front.volume(), fr.volume(4.5e-12), 1e-3, fr.name);
+            s.front.check(&tol).unwrap_or_else(|e| panic!("{}: {e}", fr.name));
+            // Legs 3e-6: thick enough (1.7e-6 > weld) but volume 4.5e-18 < min_volume.
+            assert!(3e-6 / 3f64.sqrt() > tol.weld_abs() / fr.scale);
+            assert!(fr.volume(4.5e-18) < min_volume(&tol));
+            assert_eq!(t([1.0, 1.0, 1.0], [1.0 - 3e-6, 1.0, 1.0]), Cut::Back, "{}", fr.name);
+        }
+    }
+
+    #[test]
+    fn split_through_vertices_and_edges() {
+        for (fr, tol) in frames(3f64.sqrt()) {
+            let c = cube(&fr);
+            // Diagonal plane through two opposite edges: On vertices, no new points.
+            let s = c.split(&fr.plane([1.0, -1.0, 0.0], [0.0; 3]), &tol, 6).unwrap();
+            for p in [&s.front, &s.back] {
+                p.check(&tol).unwrap_or_else(|e| panic!("{}: {e}", fr.name));
+                assert_close(p.volume(), fr.volume(0.5), 1e-9, fr.name);
+                assert_eq!(p.vertices().len(), 6);
+            }
+            assert_eq!(s.section.len(), 4);
+            assert_close(s.section.area(), fr.area(2f64.sqrt()), 1e-9, fr.name);
+            // Plane through three vertices: a corner tetrahedron.
+            let s = c.split(&fr.plane([1.0, 1.0, 1.0], [1.0, 0.0, 0.0]), &tol, 6).unwrap();
+            assert_close(s.back.volume(), fr.volume(1.0 / 6.0), 1e-9, fr.name);
+            assert_eq!(s.back.vertices().len(), 4);
+            s.front.check(&tol).unwrap();
+            s.back.check(&tol).unwrap();
+            // Hexagonal section through the centre.
+            let s = c.split(&fr.plane([1.0, 1.0, 1.0], [0.5; 3]), &tol, 6).unwrap();
+            assert_eq!(s.section.len(), 6);
+            assert_close(s.section.area(), fr.area(3.0 * 3f64.sqrt() / 4.0), 1e-9, fr.name);
+            assert!(s.section.is_convex(&tol));
+        }
+    }
+
+    /// Repeatedly split every piece by random planes; returns the final pieces.
+    fn shatter(
+        p0: &ConvexPolyhedron,
+        fr: &Frame,
+        tol: &Tolerances,
+        seed: u64,
+        planes: usize,
+        subdivide: bool,
+    ) -> (Vec<ConvexPolyhedron>, f64) {
+        let mut rng = Rng::new(seed);
+        let mut pieces = vec![p0.clone()];
+        let mut section_area = 0.0;
+        let mut tag = 100;
+        for _ in 0..planes {
+            let n = rng.unit();
+            let p = [rng.f64(), rng.f64(), rng.f64()];
+            let p = if rng.f64() < 0.3 { [0.25, 0.25, 0.25] } else { p };
+            let pl = fr.plane(n, p);
+            let mut next = vec![];
+            for piece in pieces {
+                tag += 1;
+                match piece.cut(&pl, tol, tag) {
+                    Cut::Split(s) => {
+                        section_area += s.section.area();
+                        for q in [&s.front, &s.back] {
+                            q.check(tol).unwrap_or_else(|e| panic!("{}: {e}", fr.name));
+                        }
+                        next.push(s.front);
+                        next.push(s.back);
+                    }
+                    _ => next.push(piece),
+                }
+            }
+            if subdivide {
+                // Simulate neighbours splitting: subdivide a random face of some pieces.
+                for q in &mut next {
+                    if rng.f64() < 0.5 {
+                        let fi = (rng.next_u64() % q.faces.len() as u64) as usize;
+                        let c = q.faces[fi].centroid();
+                        let pl = Plane::from_normal_point(fr.apply_vec(rng.unit()), &c);
+                        let t = q.tags[fi];
+                        q.split_face(fi, &pl, tol, t, t);
+                        q.check(tol)
+                            .unwrap_or_else(|e| panic!("{}: after split_face: {e}", fr.name));
+                    }
+                }
+            }
+            pieces = next;
+        }
+        (pieces, section_area)
+    }
+
+    fn shatter_checks(p0: &ConvexPolyhedron, fr: &Frame, tol: &Tolerances, subdivide: bool) {
+        let v0 = p0.volume();
+        let a0 = p0.surface_area();
+        let c0 = p0.centroid();
+        for seed in 1..=5 {
+            let (pieces, sec) = shatter(p0, fr, tol, seed, 12, subdivide);
+            assert!(pieces.len() > 10, "{}: only {} pieces", fr.name, pieces.len());
+            let v: f64 = pieces.iter().map(|p| p.volume()).sum();
+            assert_close(v, v0, 1e-9, fr.name);
+            let a: f64 = pieces.iter().map(|p| p.surface_area()).sum();
+            assert_close(a, a0 + 2.0 * sec, 1e-9, fr.name);
+            let mut m = [0.0; 3];
+            for p in &pieces {
+                let vol = p.volume();
+                assert!(vol >= min_volume(tol));
+                m = add(&m, &scale(&sub(&p.centroid(), &c0), vol));
+            }
+            assert!(norm(&m) / v0 < 1e-9 * fr.scale, "{}: centroid drift {:?}", fr.name, m);
+        }
+    }
+
+    #[test]
+    fn repeated_random_splits_of_tetrahedron_preserve_volume() {
+        for (fr, tol) in frames(2f64.sqrt()) {
+            shatter_checks(&tet(&fr), &fr, &tol, false);
+        }
+    }
+
+    #[test]
+    fn repeated_random_splits_with_subdivided_faces() {
+        for (fr, tol) in frames(3f64.sqrt()) {
+            shatter_checks(&cube(&fr), &fr, &tol, true);
+            shatter_checks(&tet(&fr), &fr, &tol, true);
+        }
+    }
+
+    #[test]
+    fn split_face_keeps_boundary_conforming() {
+        for (fr, tol) in frames(3f64.sqrt()) {
+            let mut c = cube(&fr);
+            // Subdivide the +z face (index 5) along x = 0.5.
+            let k = c
+                .split_face(5, &fr.plane([1.0, 0.0, 0.0], [0.5, 0.0, 0.0]), &tol, 50, 51)
+                .unwrap();
+            assert_eq!((k, c.faces.len()), (6, 7));
+            assert_eq!((c.tags[5], c.tags[6]), (50, 51));
+            c.check(&tol).unwrap_or_else(|e| panic!("{}: {e}", fr.name));
+            assert_eq!(c.vertices().len(), 10);
+            // ±y faces got a T-vertex each.
+            assert_eq!((c.faces[2].len(), c.faces[3].len()), (5, 5));
+            assert_close(c.volume(), fr.volume(1.0), 1e-9, fr.name);
+            // Face that does not straddle: nothing happens.
+            assert_eq!(
+                c.split_face(4, &fr.plane([0.0, 0.0, 1.0], [0.0, 0.0, 0.5]), &tol, 0, 0),
+                None
+            );
+            // Split across the seam.
+            let s = c.split(&fr.plane([0.0, 1.0, 0.0], [0.0, 0.3, 0.0]), &tol, 9).unwrap();
+            s.front.check(&tol).unwrap();
+            s.back.check(&tol).unwrap();
+            assert_close(s.back.volume(), fr.volume(0.3), 1e-9, fr.name);
+            assert_eq!(s.section.len(), 5); // includes the seam's crossing point
+            for p in [&s.front, &s.back] {
+                assert!(p.tags.contains(&50) && p.tags.contains(&51));
+            }
+            // Split along the seam: each piece gets exactly one patch.
+            let s = c.split(&fr.plane([1.0, 0.0, 0.0], [0.5, 0.0, 0.0]), &tol, 9).unwrap();
+            s.front.check(&tol).unwrap();
+            s.back.check(&tol).unwrap();
+            assert!(s.front.tags.contains(&50) && !s.front.tags.contains(&51));
+            assert!(s.back.tags.contains(&51) && !s.back.tags.contains(&50));
+            // The section uses the seam's T-vertices.
+            assert_eq!(s.section.len(), 4);
+            // Split parallel to the seam, crossing the T-vertices' edges.
+            let s = c.split(&fr.plane([1.0, 0.0, 0.0], [0.7, 0.0, 0.0]), &tol, 9).unwrap();
+            s.front.check(&tol).unwrap();
+            s.back.check(&tol).unwrap();
+            assert_close(s.front.volume(), fr.volume(0.3), 1e-9, fr.name);
+        }
+    }
+
+    #[test]
+    fn degenerate_plane_does_not_split() {
+        let tol = Tolerances::for_scale(3f64.sqrt());
+        let c = ConvexPolyhedron::cuboid(&[0.0; 3], &[1.0; 3]);
+        let pl = Plane::new([0.0; 3], 0.0);
+        assert!(matches!(c.cut(&pl, &tol, 0), Cut::Front | Cut::Back));
+        assert_eq!(c.classify(&pl, &tol), Classification::Coplanar);
+    }
+
+    #[test]
+    fn grid_of_wall_planes_and_repeated_planes() {
+        // Axis-aligned "walls" at x, y, z = k/4 (in shuffled order, each twice): 64 equal
+        // cells; the second pass of a plane never splits anything (all vertices On/one
+        // side), nor does a copy shifted by half the plane tolerance.
+        for (fr, tol) in frames(3f64.sqrt()) {
+            let mut planes = vec![];
+            for axis in 0..3 {
+                for k in 1..4 {
+                    let mut n = [0.0; 3];
+                    n[axis] = 1.0;
+                    let mut p = [0.0; 3];
+                    p[axis] = k as f64 / 4.0;
+                    planes.push((n, p));
+                }
+            }
+            let mut rng = Rng::new(3);
+            for i in (1..planes.len()).rev() {
+                planes.swap(i, (rng.next_u64() % (i as u64 + 1)) as usize);
+            }
+            let mut pieces = vec![cube(&fr)];
+            for &(n, p) in &planes {
+                for pass in 0..3 {
+                    let mut pl = fr.plane(n, p);
+                    if pass == 2 {
+                        pl.d += 0.5 * tol.plane_abs() * super::super::vec::norm(&pl.n);
+                    }
+                    let mut next = vec![];
+                    for q in pieces {
+                        match q.cut(&pl, &tol, 0) {
+                            Cut::Split(s) => {
+                                assert_eq!(pass, 0, "{}: plane split again", fr.name);
+                                s.front.check(&tol).unwrap();
+                                s.back.check(&tol).unwrap();
+                                next.push(s.front);
+                                next.push(s.back);
+                            }
+                            _ => next.push(q),
+                        }
+                    }
+                    pieces = next;
+                }
+            }
+            assert_eq!(pieces.len(), 64);
+            for q in &pieces {
+                assert_close(q.volume(), fr.volume(1.0 / 64.0), 1e-8, fr.name);
+                assert_eq!(q.vertices().len(), 8, "{}", fr.name);
+            }
+        }
+    }
+
+    #[test]
+    fn planes_through_existing_vertices() {
+        // Model polygon planes pass exactly through cell vertices: split by planes
+        // through 1 or 3 vertices of the pieces (including earlier crossing points).
+        for (fr, tol) in frames(2f64.sqrt()) {
+            for seed in 0..5 {
+                let t0 = tet(&fr);
+                let v0 = t0.volume();
+                let mut rng = Rng::new(100 + seed);
+                let mut pieces = vec![t0];
+                let mut splits = 0;
+                for _ in 0..40 {
+                    let q = &pieces[(rng.next_u64() % pieces.len() as u64) as usize];
+                    let vs = q.vertices();
+                    let pick = |r: &mut Rng| vs[(r.next_u64() % vs.len() as u64) as usize];
+                    let pl = if rng.f64() < 0.5 {
+                        Plane::from_normal_point(rng.unit(), &pick(&mut rng))
+                    } else {
+                        let (a, b, c) = (pick(&mut rng), pick(&mut rng), pick(&mut rng));
+                        let pl = Plane::from_points(&a, &b, &c);
+                        if pl.is_degenerate() {
+                            continue;
+                        }
+                        pl
+                    };
+                    let mut next = vec![];
+                    for q in pieces {
+                        match q.cut(&pl, &tol, 0) {
+                            Cut::Split(s) => {
+                                splits += 1;
+                                for r in [&s.front, &s.back] {
+                                    r.check(&tol).unwrap_or_else(|e| panic!("{}: {e}", fr.name));
+                                    assert!(s.section.is_convex(&tol) || s.section.area() < 1e-6 * fr.area(1.0));
+                                }
+                                next.push(s.front);
+                                next.push(s.back);
+                            }
+                            _ => next.push(q),
+                        }
+                    }
+                    pieces = next;
+                }
+                assert!(splits > 20, "{}: {splits}", fr.name);
+                let v: f64 = pieces.iter().map(|p| p.volume()).sum();
+                assert_close(v, v0, 1e-9, fr.name);
+            }
+        }
+    }
+
+    #[test]
+    fn clip_polygon_to_cell() {
+        for (fr, tol) in frames(3f64.sqrt()) {
+            let c = cube(&fr);
+            let p = |pts: &[[f64; 3]]| ConvexPolygon::new(pts.iter().map(|q| fr.apply(*q)).collect());
+            // A big triangle in z = 0.5 crossing the cube: clipped to the unit square.
+            let t = p(&[[-1.0, -1.0, 0.5], [4.0, -1.0, 0.5], [-1.0, 4.0, 0.5]]);
+            let r = c.clip_polygon(&t, &tol).unwrap();
+            assert_close(r.area(), fr.area(1.0), 1e-9, fr.name);
+            assert!(dot(&r.normal(), &t.normal()) > 0.999_999);
+            // Lying on the +z face (either orientation), partly outside: kept, clipped.
+            for q in [
+                p(&[[0.5, 0.5, 1.0], [2.0, 0.5, 1.0], [2.0, 2.0, 1.0], [0.5, 2.0, 1.0]]),
+                p(&[[0.0, 0.5, 0.5], [0.0, 2.0, 0.5], [0.0, 2.0, 2.0], [0.0, 0.5, 2.0]]),
+            ] {
+                let r = c.clip_polygon(&q, &tol).unwrap();
+                assert_close(r.area(), fr.area(0.25), 1e-9, fr.name);
+                let r = c.clip_polygon(&q.reversed(), &tol).unwrap();
+                assert_close(r.area(), fr.area(0.25), 1e-9, fr.name);
+            }
+            // In the +z face plane but outside the face; touching an edge; far away.
+            assert!(
+                c.clip_polygon(&p(&[[2.0, 2.0, 1.0], [3.0, 2.0, 1.0], [3.0, 3.0, 1.0]]), &tol)
+                    .is_none()
+            );
+            assert!(
+                c.clip_polygon(
+                    &p(&[[1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [2.0, 1.0, 0.0], [1.0, 1.0, 0.0]]),
+                    &tol
+                )
+                .is_none()
+            );
+            assert!(
+                c.clip_polygon(&p(&[[0.0, 0.0, 3.0], [1.0, 0.0, 3.0], [0.0, 1.0, 3.0]]), &tol)
+                    .is_none()
+            );
+            // Inside entirely: unchanged.
+            let q = p(&[[0.2, 0.2, 0.2], [0.8, 0.2, 0.3], [0.5, 0.7, 0.6]]);
+            assert_eq!(c.clip_polygon(&q, &tol), Some(q.clone()));
+        }
+    }
+}
