@@ -4,6 +4,10 @@
 //! [`predicates`] (exact geometry) ← [`delaunay`] (tetrahedralization) and [`model`] (input)
 //! ← later stages (cell complex, decimation).
 
+// Index loops over fixed-size vertex/face slots read more clearly than iterator chains
+// in geometry code.
+#![allow(clippy::needless_range_loop)]
+
 pub mod bench;
 pub mod complex;
 pub mod delaunay;

@@ -145,7 +145,8 @@ fn tetra(path: &std::path::Path, validate: bool) -> Result<()> {
 fn complex(path: &std::path::Path, validate: bool) -> Result<()> {
     let m = load(path)?;
     let t0 = Instant::now();
-    let t = Tetrahedralization::build(&m.vertices).with_context(|| format!("cannot tetrahedralize {}", path.display()))?;
+    let t =
+        Tetrahedralization::build(&m.vertices).with_context(|| format!("cannot tetrahedralize {}", path.display()))?;
     let tt = t0.elapsed().as_secs_f64();
     let cx = portalfind::complex::CellComplex::build(&m, &t);
     let s = &cx.stats;
@@ -158,17 +159,29 @@ fn complex(path: &std::path::Path, validate: bool) -> Result<()> {
     let rows: [(&str, String); 15] = [
         ("model polygons", s.polygons.to_string()),
         ("tetrahedra", s.tetrahedra.to_string()),
-        ("polygons skipped as already conforming", s.polygons_conforming.to_string()),
+        (
+            "polygons skipped as already conforming",
+            s.polygons_conforming.to_string(),
+        ),
         ("polygons clipped against cells", s.polygons_clipped.to_string()),
         ("cells split", s.cells_split.to_string()),
         ("splits refused (sliver)", s.splits_refused.to_string()),
         ("fragments left unplaced", s.unplaced_fragments.to_string()),
         ("cells after splitting", s.cells_after_split.to_string()),
-        ("exterior cells removed", format!("{} in {} regions", s.exterior_cells_removed, s.exterior_regions)),
-        ("active cells", format!("{} in {} regions", s.active_cells, s.interior_regions)),
+        (
+            "exterior cells removed",
+            format!("{} in {} regions", s.exterior_cells_removed, s.exterior_regions),
+        ),
+        (
+            "active cells",
+            format!("{} in {} regions", s.active_cells, s.interior_regions),
+        ),
         ("portal pairs", s.portal_pairs.to_string()),
         ("portal polygons", s.portal_polygons.to_string()),
-        ("slivers discarded", format!("{} (total area {:.3e})", s.slivers_discarded, s.sliver_area)),
+        (
+            "slivers discarded",
+            format!("{} (total area {:.3e})", s.slivers_discarded, s.sliver_area),
+        ),
         ("leaks", s.leaks.to_string()),
         ("hull volume", format!("{:.6e}", cx.hull_volume)),
     ];

@@ -20,13 +20,24 @@ pub struct Tolerances {
     pub area: f64,
     /// Points closer than `plane * scale` to a constructed plane count as on it.
     pub plane: f64,
+    /// Model polygons whose vertices all lie within `coplanar * scale` of another polygon's
+    /// plane share that plane for splitting (input rounding makes ramps and fans of one
+    /// face slightly non-coplanar; splitting by each plane separately leaves wedge cells
+    /// that leak between them).
+    pub coplanar: f64,
 }
 
 impl Tolerances {
     /// Default relative tolerances for a model whose bounding-box diagonal is `scale`.
     pub fn for_scale(scale: f64) -> Self {
         let scale = if scale.is_finite() && scale > 0.0 { scale } else { 1.0 };
-        Tolerances { scale, weld: 1e-7, area: 1e-5, plane: 1e-9 }
+        Tolerances {
+            scale,
+            weld: 1e-7,
+            area: 1e-5,
+            plane: 1e-9,
+            coplanar: 1e-6,
+        }
     }
     /// Absolute weld distance.
     pub fn weld_abs(&self) -> f64 {
@@ -36,6 +47,15 @@ impl Tolerances {
     pub fn area_abs(&self) -> f64 {
         let l = self.area * self.scale;
         l * l
+    }
+    /// Portal pieces narrower than this (twice the area over the perimeter) are cracks
+    /// left by rounding or by polygons that meet at T-junctions: discarded as slivers.
+    pub fn sliver_width(&self) -> f64 {
+        self.area * self.scale
+    }
+    /// Absolute distance for sharing a support plane.
+    pub fn coplanar_abs(&self) -> f64 {
+        self.coplanar * self.scale
     }
     /// Absolute plane distance.
     pub fn plane_abs(&self) -> f64 {

@@ -16,16 +16,35 @@ impl CellComplex {
         let t0 = Instant::now();
         let mut cx = CellComplex::from_tets(model, tet);
         cx.stats.polygons = model.polygons.len();
-        cx.stats.timings.push(("cells from tetrahedra".into(), t0.elapsed().as_secs_f64()));
+        cx.stats
+            .timings
+            .push(("cells from tetrahedra".into(), t0.elapsed().as_secs_f64()));
 
         let t1 = Instant::now();
-        let pending = cx.attach_conforming(model, tet);
-        cx.stats.timings.push(("conforming polygons".into(), t1.elapsed().as_secs_f64()));
+        // Support planes over all polygons first: a polygon may skip geometry only if it
+        // lies exactly on its support plane, so that one surface never mixes planes.
+        let all: Vec<PolygonId> = (0..model.polygons.len() as u32).map(PolygonId).collect();
+        let (supports, of) = support_planes(model, &all, &cx.tol);
+        cx.stats.support_planes = supports.len();
+        let on_support: Vec<bool> = model
+            .polygons
+            .iter()
+            .zip(&of)
+            .map(|(p, &(s, _))| {
+                let [a, b, c] = supports[s].ids.map(|v| tet.point(v));
+                p.verts.iter().all(|v| orient3d(a, b, c, tet.point(*v)) == 0)
+            })
+            .collect();
+        let pending = cx.attach_conforming(model, tet, &on_support);
+        cx.stats
+            .timings
+            .push(("conforming polygons".into(), t1.elapsed().as_secs_f64()));
 
         let t2 = Instant::now();
         let mut placer = Placer::new(tet, cx.cells.len());
         for &p in &pending {
-            cx.place_polygon(model, tet, &mut placer, p);
+            let (s, flipped) = of[p.idx()];
+            cx.place_polygon(model, tet, &mut placer, p, &supports[s], flipped);
         }
         cx.stats.polygons_clipped = pending.len();
         cx.stats.cells_after_split = cx.cells.iter().filter(|c| c.alive).count();
@@ -33,11 +52,15 @@ impl CellComplex {
 
         let t3 = Instant::now();
         cx.build_graph();
-        cx.stats.timings.push(("portal graph".into(), t3.elapsed().as_secs_f64()));
+        cx.stats
+            .timings
+            .push(("portal graph".into(), t3.elapsed().as_secs_f64()));
 
         let t4 = Instant::now();
         cx.remove_exterior();
-        cx.stats.timings.push(("exterior removal".into(), t4.elapsed().as_secs_f64()));
+        cx.stats
+            .timings
+            .push(("exterior removal".into(), t4.elapsed().as_secs_f64()));
         cx
     }
 
@@ -63,13 +86,20 @@ impl CellComplex {
                     None => HULL,
                 };
                 face_patch[t.idx()][i] = id;
-                patches.push(Patch { polygon: poly, cells: [CellId(t.0), other], occluders: Vec::new(), alive: true });
+                patches.push(Patch {
+                    polygon: poly,
+                    cells: [CellId(t.0), other],
+                    occluders: Vec::new(),
+                    alive: true,
+                });
             }
         }
         let cells = tet
             .tets()
             .map(|(t, _)| {
-                let faces = (0..4).map(|i| patches[face_patch[t.idx()][i] as usize].polygon.clone()).collect::<Vec<_>>();
+                let faces = (0..4)
+                    .map(|i| patches[face_patch[t.idx()][i] as usize].polygon.clone())
+                    .collect::<Vec<_>>();
                 // The patch polygon is oriented outward of cells[0]; reverse it where this
                 // tetrahedron is cells[1].
                 let faces = faces
@@ -88,7 +118,10 @@ impl CellComplex {
                 }
             })
             .collect();
-        let stats = ComplexStats { tetrahedra: nt, ..Default::default() };
+        let stats = ComplexStats {
+            tetrahedra: nt,
+            ..Default::default()
+        };
         CellComplex {
             cells,
             patches,
@@ -102,19 +135,21 @@ impl CellComplex {
 
     /// Stage 2: polygons whose fan triangles are all tetrahedron faces get occluders on
     /// those faces without any geometry. Returns the polygons left for stage 3.
-    fn attach_conforming(&mut self, model: &Model, tet: &Tetrahedralization) -> Vec<PolygonId> {
+    fn attach_conforming(&mut self, model: &Model, tet: &Tetrahedralization, on_support: &[bool]) -> Vec<PolygonId> {
         // Sorted vertex triple of every tetrahedron face -> its patch.
         let mut wanted: HashMap<[u32; 3], Option<PatchId>> = HashMap::new();
         let fans = |p: &[VertexId], start: usize| -> Vec<[u32; 3]> {
             let n = p.len();
-            (1..n - 1).map(|k| [p[start].0, p[(start + k) % n].0, p[(start + k + 1) % n].0]).collect()
+            (1..n - 1)
+                .map(|k| [p[start].0, p[(start + k) % n].0, p[(start + k + 1) % n].0])
+                .collect()
         };
         let key = |t: &[u32; 3]| {
             let mut k = *t;
             k.sort_unstable();
             k
         };
-        for poly in &model.polygons {
+        for (poly, _) in model.polygons.iter().zip(on_support).filter(|(_, on)| **on) {
             let starts = if poly.verts.len() > 3 { 2 } else { 1 };
             for s in 0..starts {
                 for tri in fans(&poly.verts, s) {
@@ -123,7 +158,14 @@ impl CellComplex {
             }
         }
         for (pi, p) in self.patches.iter().enumerate() {
-            let (t, i) = (p.cells[0], self.cells[p.cells[0].idx()].poly.tags.iter().position(|&x| x == pi as u32));
+            let (t, i) = (
+                p.cells[0],
+                self.cells[p.cells[0].idx()]
+                    .poly
+                    .tags
+                    .iter()
+                    .position(|&x| x == pi as u32),
+            );
             let Some(i) = i else { continue };
             let f = tet.face(TetId(t.0), i).map(|v| v.0);
             if let Some(slot) = wanted.get_mut(&key(&f)) {
@@ -132,6 +174,10 @@ impl CellComplex {
         }
         let mut pending = Vec::new();
         for (k, poly) in model.polygons.iter().enumerate() {
+            if !on_support[k] {
+                pending.push(PolygonId(k as u32));
+                continue;
+            }
             let starts = if poly.verts.len() > 3 { 2 } else { 1 };
             let fan = (0..starts)
                 .map(|s| fans(&poly.verts, s))
@@ -145,13 +191,20 @@ impl CellComplex {
                 let pid = wanted[&key(&tri)].expect("checked");
                 let patch = &mut self.patches[pid.idx()];
                 let pv: Vec<P3Key> = patch.polygon.verts.iter().map(|p| p.map(f64::to_bits)).collect();
-                let tv: Vec<P3Key> = tri.iter().map(|&v| model.vertices[v as usize].map(f64::to_bits)).collect();
+                let tv: Vec<P3Key> = tri
+                    .iter()
+                    .map(|&v| model.vertices[v as usize].map(f64::to_bits))
+                    .collect();
                 // Same cyclic order as the patch: the polygon's normal agrees with the patch
                 // normal, which points into cells[1], so the polygon faces cells[1].
                 let same = (0..3).any(|r| (0..3).all(|j| pv[(r + j) % 3] == tv[j]));
                 // The triangle *is* the patch; occluders are stored in the patch's orientation.
                 let polygon = patch.polygon.clone();
-                patch.occluders.push(Occluder { polygon, source: PolygonId(k as u32), faces: if same { 1 } else { 0 } });
+                patch.occluders.push(Occluder {
+                    polygon,
+                    source: PolygonId(k as u32),
+                    faces: if same { 1 } else { 0 },
+                });
             }
         }
         pending
@@ -159,20 +212,37 @@ impl CellComplex {
 
     /// Stage 3 for one polygon: visit the cells it touches; split straddled cells; attach
     /// occluders on faces it lies on.
-    fn place_polygon(&mut self, model: &Model, tet: &Tetrahedralization, pl: &mut Placer, pid: PolygonId) {
+    fn place_polygon(
+        &mut self,
+        model: &Model,
+        tet: &Tetrahedralization,
+        pl: &mut Placer,
+        pid: PolygonId,
+        support: &Support,
+        flipped: bool,
+    ) {
         let poly = &model.polygons[pid.idx()];
-        let verts: Vec<[f64; 3]> = poly.verts.iter().map(|v| model.vertices[v.idx()]).collect();
+        // The polygon, projected onto its support plane (a no-op for the representative),
+        // with the plane oriented so that its front is the polygon's front.
+        let plane = if flipped {
+            support.plane.flipped()
+        } else {
+            support.plane
+        };
+        let verts: Vec<[f64; 3]> = poly
+            .verts
+            .iter()
+            .map(|v| support.project(&model.vertices[v.idx()]))
+            .collect();
         let polygon = ConvexPolygon::new(verts.clone());
-        // Plane through the polygon's first three non-collinear vertices, front = CCW side.
-        let ids: Vec<VertexId> = poly.verts.clone();
-        let plane = Plane::from_points(&verts[0], &verts[1], &verts[2]);
+        let ids = support.ids;
         let (lo, hi) = aabb(&verts);
         let slack = self.tol.plane_abs() * 4.0 + self.tol.weld_abs();
 
         pl.queue.clear();
         pl.epoch += 1;
         let epoch = pl.epoch;
-        for c in pl.seed_cells(tet, ids[0], &self.cells) {
+        for c in pl.seed_cells(tet, poly.verts[0], &self.cells) {
             pl.mark(c, epoch);
             pl.queue.push_back(c);
         }
@@ -184,31 +254,47 @@ impl CellComplex {
                 continue;
             }
             // Classify: exactly for unsplit tetrahedra, with tolerance otherwise.
-            let class = self.classify(c, tet, &ids, &plane);
+            let class = self.classify(c, tet, &ids, flipped, &plane);
             let mut next: Vec<CellId> = Vec::new();
             match class {
                 Classification::Straddles => {
                     let clip = clip_to_cell(&polygon, &self.cells[c.idx()].poly, &self.tol);
-                    match clip {
-                        Some(clip) if clip.area() >= self.tol.area_abs() => match self.split_cell(c, &plane, clip, pid) {
-                            Some((f, b)) => {
-                                pl.on_split(c, f, b, &self.cells);
-                                next.push(f);
-                                next.push(b);
-                                pl.mark(f, epoch);
-                                pl.mark(b, epoch);
-                            }
-                            None => {
+                    let significant = clip.as_ref().is_some_and(|q| q.area() >= self.tol.area_abs());
+                    let split = match clip {
+                        Some(clip) if significant => {
+                            let r = self.split_cell(c, &plane, clip, pid);
+                            if r.is_none() {
                                 self.stats.splits_refused += 1;
-                                self.attach_on_faces(c, &polygon, &plane, pid, true);
-                                next.push(c);
                             }
-                        },
-                        _ => next.push(c),
+                            r
+                        }
+                        _ => None,
+                    };
+                    match split {
+                        Some((f, b)) => {
+                            pl.on_split(c, f, b, &self.cells);
+                            next.push(f);
+                            next.push(b);
+                            pl.mark(f, epoch);
+                            pl.mark(b, epoch);
+                        }
+                        None => {
+                            // Within tolerance of the cell's boundary: the polygon lies on a
+                            // face (or grazes the cell); attach it there.
+                            let attached = self.attach_on_faces(c, &polygon, &plane, pid, true);
+                            // A significant fragment on the front side that found no face.
+                            if significant
+                                && !attached
+                                && self.cells[c.idx()].poly.classify(&plane, &self.tol) != Classification::Back
+                            {
+                                self.stats.unplaced_fragments += 1;
+                            }
+                            next.push(c);
+                        }
                     }
                 }
                 Classification::Front | Classification::Coplanar => {
-                    self.attach_on_faces(c, &polygon, &plane, pid, false);
+                    self.attach_on_faces(c, &polygon, &plane, pid, true);
                     next.push(c);
                 }
                 Classification::Back => next.push(c),
@@ -225,7 +311,15 @@ impl CellComplex {
     }
 
     /// Conservative test: can the polygon intersect the closed cell?
-    fn touches(&self, c: CellId, polygon: &ConvexPolygon, plane: &Plane, lo: [f64; 3], hi: [f64; 3], slack: f64) -> bool {
+    fn touches(
+        &self,
+        c: CellId,
+        polygon: &ConvexPolygon,
+        plane: &Plane,
+        lo: [f64; 3],
+        hi: [f64; 3],
+        slack: f64,
+    ) -> bool {
         let cell = &self.cells[c.idx()].poly;
         let (clo, chi) = cell.aabb();
         if (0..3).any(|a| clo[a] > hi[a] + slack || chi[a] < lo[a] - slack) {
@@ -247,13 +341,21 @@ impl CellComplex {
         true
     }
 
-    fn classify(&self, c: CellId, tet: &Tetrahedralization, ids: &[VertexId], plane: &Plane) -> Classification {
+    fn classify(
+        &self,
+        c: CellId,
+        tet: &Tetrahedralization,
+        ids: &[VertexId; 3],
+        flipped: bool,
+        plane: &Plane,
+    ) -> Classification {
         let cell = &self.cells[c.idx()];
         if self.is_original_tet(c) {
             // All four vertices are input vertices: exact orientation against the
             // polygon's plane through three input vertices.
             let (a, b, cc) = (tet.point(ids[0]), tet.point(ids[1]), tet.point(ids[2]));
-            let sides = tet.tet(cell.tet).map(|v| orient3d(a, b, cc, tet.point(v)));
+            let flip = if flipped { -1 } else { 1 };
+            let sides = tet.tet(cell.tet).map(|v| flip * orient3d(a, b, cc, tet.point(v)));
             let (f, bk) = (sides.iter().any(|&s| s > 0), sides.iter().any(|&s| s < 0));
             return match (f, bk) {
                 (true, true) => Classification::Straddles,
@@ -274,7 +376,14 @@ impl CellComplex {
     /// Attaches the overlap of `polygon` with each of `c`'s faces lying on its plane, when
     /// `c` is on the polygon's front side. With `near`, faces within tolerance of the plane
     /// also count (used when a split was refused as a sliver).
-    fn attach_on_faces(&mut self, c: CellId, polygon: &ConvexPolygon, plane: &Plane, pid: PolygonId, near: bool) {
+    fn attach_on_faces(
+        &mut self,
+        c: CellId,
+        polygon: &ConvexPolygon,
+        plane: &Plane,
+        pid: PolygonId,
+        near: bool,
+    ) -> bool {
         let un = plane.normalized();
         let eps = self.tol.plane_abs() * if near { 1e3 } else { 1.0 } + if near { self.tol.weld_abs() } else { 0.0 };
         let mut attached = false;
@@ -291,7 +400,9 @@ impl CellComplex {
             if d > -0.5 {
                 continue;
             }
-            let Some(ov) = f.intersect_coplanar(polygon, &self.tol) else { continue };
+            let Some(ov) = f.intersect_coplanar(polygon, &self.tol) else {
+                continue;
+            };
             if ov.area() < self.tol.area_abs() {
                 continue;
             }
@@ -299,20 +410,31 @@ impl CellComplex {
             let side = if self.patches[t].cells[0] == c { 0 } else { 1 };
             // Store in the patch's orientation (outward of cells[0]).
             let polygon = if side == 0 { ov } else { ov.reversed() };
-            adds.push((t, Occluder { polygon, source: pid, faces: side }));
+            adds.push((
+                t,
+                Occluder {
+                    polygon,
+                    source: pid,
+                    faces: side,
+                },
+            ));
             attached = true;
         }
         for (t, o) in adds {
             self.patches[t].occluders.push(o);
         }
-        if near && !attached {
-            self.stats.unplaced_fragments += 1;
-        }
+        attached
     }
 
     /// Splits cell `c` by `plane`; the clipped polygon becomes an occluder on the new patch
     /// facing the front piece. Returns (front, back), or `None` if the split was refused.
-    fn split_cell(&mut self, c: CellId, plane: &Plane, clip: ConvexPolygon, pid: PolygonId) -> Option<(CellId, CellId)> {
+    fn split_cell(
+        &mut self,
+        c: CellId,
+        plane: &Plane,
+        clip: ConvexPolygon,
+        pid: PolygonId,
+    ) -> Option<(CellId, CellId)> {
         let new_patch = self.patches.len() as u32;
         let cut = self.cells[c.idx()].poly.cut(plane, &self.tol, new_patch);
         let Cut::Split(s) = cut else { return None };
@@ -324,7 +446,11 @@ impl CellComplex {
         self.patches.push(Patch {
             polygon: s.section.clone(),
             cells: [bid, fid],
-            occluders: vec![Occluder { polygon: clip, source: pid, faces: 1 }],
+            occluders: vec![Occluder {
+                polygon: clip,
+                source: pid,
+                faces: 1,
+            }],
             alive: true,
         });
         let mut front = s.front;
@@ -353,7 +479,10 @@ impl CellComplex {
                             PolygonSplit::Front | PolygonSplit::Coplanar => occ_f.push(o),
                             PolygonSplit::Back => occ_b.push(o),
                             PolygonSplit::Split(pf, pb) => {
-                                occ_f.push(Occluder { polygon: pf, ..o.clone() });
+                                occ_f.push(Occluder {
+                                    polygon: pf,
+                                    ..o.clone()
+                                });
                                 occ_b.push(Occluder { polygon: pb, ..o });
                             }
                         }
@@ -366,7 +495,12 @@ impl CellComplex {
                     self.patches[t].cells[side] = fid;
                     self.patches[t].polygon = pf;
                     self.patches[t].occluders = occ_f;
-                    self.patches.push(Patch { polygon: pb, cells: cells_b, occluders: occ_b, alive: true });
+                    self.patches.push(Patch {
+                        polygon: pb,
+                        cells: cells_b,
+                        occluders: occ_b,
+                        alive: true,
+                    });
                     // The neighbour across must subdivide its face the same way.
                     if other != HULL {
                         let nb = &mut self.cells[other.idx()].poly;
@@ -386,14 +520,152 @@ impl CellComplex {
         }
         let _ = &mut front;
         self.cells[c.idx()].alive = false;
-        self.cells.push(Cell { poly: front, tet, alive: true, exterior: false });
-        self.cells.push(Cell { poly: back, tet, alive: true, exterior: false });
+        self.cells.push(Cell {
+            poly: front,
+            tet,
+            alive: true,
+            exterior: false,
+        });
+        self.cells.push(Cell {
+            poly: back,
+            tet,
+            alive: true,
+            exterior: false,
+        });
         self.stats.cells_split += 1;
         Some((fid, bid))
     }
 }
 
 type P3Key = [u64; 3];
+
+/// A plane shared by nearly coplanar polygons: through three input vertices of the
+/// largest polygon of its group, oriented like that polygon.
+pub(super) struct Support {
+    ids: [VertexId; 3],
+    plane: Plane,
+}
+
+impl Support {
+    /// Orthogonal projection onto the plane.
+    fn project(&self, p: &[f64; 3]) -> [f64; 3] {
+        let n = self.plane.n;
+        let nn = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+        let t = self.plane.eval(p) / nn;
+        if t == 0.0 {
+            *p
+        } else {
+            [p[0] - t * n[0], p[1] - t * n[1], p[2] - t * n[2]]
+        }
+    }
+}
+
+/// Groups polygons whose vertices all lie within [`crate::Tolerances::coplanar_abs`] of a
+/// larger polygon's plane (either orientation). Returns the supports and, per polygon,
+/// its support and whether it faces against the support's orientation. Hash buckets on
+/// (normal, offset) keep this near linear.
+fn support_planes(model: &Model, pending: &[PolygonId], tol: &crate::Tolerances) -> (Vec<Support>, Vec<(usize, bool)>) {
+    let tolc = tol.coplanar_abs();
+    let verts = |p: PolygonId| -> Vec<[f64; 3]> {
+        model.polygons[p.idx()]
+            .verts
+            .iter()
+            .map(|v| model.vertices[v.idx()])
+            .collect()
+    };
+    let mut order: Vec<usize> = (0..pending.len()).collect();
+    let areas: Vec<f64> = pending.iter().map(|&p| ConvexPolygon::new(verts(p)).area()).collect();
+    order.sort_by(|&a, &b| areas[b].total_cmp(&areas[a]).then(a.cmp(&b)));
+    let mut supports: Vec<Support> = Vec::new();
+    let mut buckets: HashMap<[i64; 4], Vec<usize>> = HashMap::new();
+    let mut of = vec![(0usize, false); pending.len()];
+    // Buckets: normal in steps of 1/64, offset (measured from the model's centre, so a
+    // slight tilt is not amplified by the distance to the origin) in steps of scale/64.
+    // Neighbouring buckets are searched; the exact test is the vertex-distance check.
+    let (lo, hi) = model.bbox();
+    let centre = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0, (lo[2] + hi[2]) / 2.0];
+    let dstep = tol.scale / 64.0;
+    let key = |n: [f64; 3], d: f64| -> [i64; 4] {
+        let dc = d - (n[0] * centre[0] + n[1] * centre[1] + n[2] * centre[2]);
+        [
+            (n[0] * 64.0).round() as i64,
+            (n[1] * 64.0).round() as i64,
+            (n[2] * 64.0).round() as i64,
+            (dc / dstep).round() as i64,
+        ]
+    };
+    for k in order {
+        let pid = pending[k];
+        let v = verts(pid);
+        let (i, j, l) = plane_triple(&v);
+        let plane = Plane::from_points(&v[i], &v[j], &v[l]).normalized();
+        // Canonical orientation for bucketing: largest normal component positive.
+        let n = plane.n;
+        let a = (0..3).max_by(|&x, &y| n[x].abs().total_cmp(&n[y].abs())).unwrap_or(2);
+        let s = if n[a] < 0.0 { -1.0 } else { 1.0 };
+        let (cn, cd) = ([n[0] * s, n[1] * s, n[2] * s], plane.d * s);
+        let base = key(cn, cd);
+        let mut found = None;
+        'search: for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    for dd in -1..=1 {
+                        let b = [base[0] + dx, base[1] + dy, base[2] + dz, base[3] + dd];
+                        for &si in buckets.get(&b).map(|v| v.as_slice()).unwrap_or(&[]) {
+                            let sp = &supports[si].plane;
+                            if v.iter().all(|p| sp.eval(p).abs() <= tolc) {
+                                let agree = sp.n[0] * n[0] + sp.n[1] * n[1] + sp.n[2] * n[2] > 0.0;
+                                found = Some((si, !agree));
+                                break 'search;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        of[k] = match found {
+            Some(f) => f,
+            None => {
+                let poly = &model.polygons[pid.idx()];
+                supports.push(Support {
+                    ids: [poly.verts[i], poly.verts[j], poly.verts[l]],
+                    plane,
+                });
+                buckets.entry(base).or_default().push(supports.len() - 1);
+                (supports.len() - 1, false)
+            }
+        };
+    }
+    (supports, of)
+}
+
+/// Indices of three polygon vertices spanning the largest-area triangle among those with
+/// the first vertex, the vertex farthest from it, and any third.
+fn plane_triple(v: &[[f64; 3]]) -> (usize, usize, usize) {
+    let d2 = |a: &[f64; 3], b: &[f64; 3]| (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>();
+    let j = (1..v.len())
+        .max_by(|&x, &y| d2(&v[0], &v[x]).total_cmp(&d2(&v[0], &v[y])))
+        .unwrap_or(1);
+    let area = |k: usize| {
+        let (a, b, c) = (v[0], v[j], v[k]);
+        let (u, w) = (
+            [b[0] - a[0], b[1] - a[1], b[2] - a[2]],
+            [c[0] - a[0], c[1] - a[1], c[2] - a[2]],
+        );
+        let x = [
+            u[1] * w[2] - u[2] * w[1],
+            u[2] * w[0] - u[0] * w[2],
+            u[0] * w[1] - u[1] * w[0],
+        ];
+        x[0] * x[0] + x[1] * x[1] + x[2] * x[2]
+    };
+    let k = (1..v.len())
+        .filter(|&k| k != j)
+        .max_by(|&x, &y| area(x).total_cmp(&area(y)))
+        .unwrap_or(2);
+    // Keep the polygon's winding: the triple must appear in cyclic order 0 < j < k or 0 < k < j.
+    if j < k { (0, j, k) } else { (0, k, j) }
+}
 
 fn aabb(v: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
     let mut lo = [f64::INFINITY; 3];
@@ -437,7 +709,13 @@ impl Placer {
                 vertex_tet[x.idx()] = t.0;
             }
         }
-        Placer { queue: VecDeque::new(), marks: vec![0; ncells], epoch: 0, descendants: HashMap::new(), vertex_tet }
+        Placer {
+            queue: VecDeque::new(),
+            marks: vec![0; ncells],
+            epoch: 0,
+            descendants: HashMap::new(),
+            vertex_tet,
+        }
     }
 
     /// Marks a cell for this epoch; true if it was not marked yet.
@@ -483,10 +761,10 @@ impl Placer {
                 if vs[i] == v {
                     continue; // the face opposite v does not contain v
                 }
-                if let Some((n, _)) = tet.neighbor(TetId(t), i) {
-                    if seen.insert(n.0) {
-                        stack.push(n.0);
-                    }
+                if let Some((n, _)) = tet.neighbor(TetId(t), i)
+                    && seen.insert(n.0)
+                {
+                    stack.push(n.0);
                 }
             }
         }

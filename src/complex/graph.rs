@@ -5,17 +5,42 @@ use crate::geom::ConvexPolygon;
 use crate::ids::CellId;
 use std::collections::{HashMap, VecDeque};
 
+fn perimeter(p: &ConvexPolygon) -> f64 {
+    let n = p.verts.len();
+    (0..n)
+        .map(|i| {
+            let (a, b) = (p.verts[i], p.verts[(i + 1) % n]);
+            ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+        })
+        .sum()
+}
+
 impl CellComplex {
     /// Uncovered pieces of a patch: its polygon minus all occluders on it (either side).
     /// Returns (pieces, slivers, sliver area).
+    /// Pieces below the area tolerance or narrower than [`crate::Tolerances::sliver_width`]
+    /// are slivers: dropped and counted.
     pub fn open_pieces(&self, p: PatchId) -> (Vec<ConvexPolygon>, usize, f64) {
         let patch = &self.patches[p.idx()];
-        if patch.occluders.is_empty() {
-            return (vec![patch.polygon.clone()], 0, 0.0);
+        let (pieces, mut slivers, mut sliver_area) = if patch.occluders.is_empty() {
+            (vec![patch.polygon.clone()], 0, 0.0)
+        } else {
+            let holes: Vec<ConvexPolygon> = patch.occluders.iter().map(|o| o.polygon.clone()).collect();
+            let s = patch.polygon.subtract(&holes, &self.tol);
+            (s.pieces, s.slivers, s.sliver_area)
+        };
+        let (amin, wmin) = (self.tol.area_abs(), self.tol.sliver_width());
+        let mut keep = Vec::with_capacity(pieces.len());
+        for q in pieces {
+            let a = q.area();
+            if a < amin || 2.0 * a < wmin * perimeter(&q) {
+                slivers += 1;
+                sliver_area += a;
+            } else {
+                keep.push(q);
+            }
         }
-        let holes: Vec<ConvexPolygon> = patch.occluders.iter().map(|o| o.polygon.clone()).collect();
-        let s = patch.polygon.subtract(&holes, &self.tol);
-        (s.pieces, s.slivers, s.sliver_area)
+        (keep, slivers, sliver_area)
     }
 
     /// Stage 4: portals between alive cells, grouped per cell pair.
@@ -38,9 +63,17 @@ impl CellComplex {
                 continue;
             }
             // Orient from the smaller cell id to the larger.
-            let (key, pieces) = if a < b { ((a, b), pieces) } else { ((b, a), pieces.iter().map(|p| p.reversed()).collect()) };
+            let (key, pieces) = if a < b {
+                ((a, b), pieces)
+            } else {
+                ((b, a), pieces.iter().map(|p| p.reversed()).collect())
+            };
             let k = *by_pair.entry(key).or_insert_with(|| {
-                portals.push(Portal { cells: [key.0, key.1], pieces: Vec::new(), area: 0.0 });
+                portals.push(Portal {
+                    cells: [key.0, key.1],
+                    pieces: Vec::new(),
+                    area: 0.0,
+                });
                 portals.len() - 1
             });
             for p in pieces {
@@ -118,7 +151,8 @@ impl CellComplex {
         }
         self.stats.exterior_cells_removed = removed;
         self.stats.active_cells = self.cells.iter().filter(|c| c.active()).count();
-        self.portals.retain(|p| !self.cells[p.cells[0].idx()].exterior && !self.cells[p.cells[1].idx()].exterior);
+        self.portals
+            .retain(|p| !self.cells[p.cells[0].idx()].exterior && !self.cells[p.cells[1].idx()].exterior);
         self.stats.portal_pairs = self.portals.len();
         self.stats.portal_polygons = self.portals.iter().map(|p| p.pieces.len()).sum();
         self.stats.leaks = leaks.len();
@@ -127,7 +161,12 @@ impl CellComplex {
 
     /// Multi-source BFS from the cells with open hull faces; the occluder-facing cell
     /// farthest from the hull starts the reported path.
-    fn trace_leak(&self, members: &[CellId], adj: &[Vec<(CellId, usize)>], hull_open: &HashMap<CellId, [f64; 3]>) -> Leak {
+    fn trace_leak(
+        &self,
+        members: &[CellId],
+        adj: &[Vec<(CellId, usize)>],
+        hull_open: &HashMap<CellId, [f64; 3]>,
+    ) -> Leak {
         let mut dist: HashMap<CellId, (u32, Option<(CellId, usize)>)> = HashMap::new();
         let mut q = VecDeque::new();
         for &c in members {
@@ -165,6 +204,12 @@ impl CellComplex {
             Some(k) => self.portals[k].pieces.first().map_or([f64::NAN; 3], |p| p.centroid()),
             None => hull_open[&from],
         };
-        Leak { region_cells: members.len(), from_cell: from, hull_point: hull_open[&c], path, first_portal_point }
+        Leak {
+            region_cells: members.len(),
+            from_cell: from,
+            hull_point: hull_open[&c],
+            path,
+            first_portal_point,
+        }
     }
 }

@@ -141,6 +141,8 @@ pub struct ComplexStats {
     pub polygons_conforming: usize,
     /// Polygons placed by clipping and splitting.
     pub polygons_clipped: usize,
+    /// Distinct support planes among them (nearly coplanar polygons share one).
+    pub support_planes: usize,
     /// Cell splits performed (each adds one cell).
     pub cells_split: usize,
     /// Splits refused because a piece would have been a sliver (the polygon was attached
@@ -194,11 +196,19 @@ pub struct CellComplex {
 impl CellComplex {
     /// Alive cells (not split), including exterior ones.
     pub fn alive_cells(&self) -> impl Iterator<Item = (CellId, &Cell)> {
-        self.cells.iter().enumerate().filter(|(_, c)| c.alive).map(|(i, c)| (CellId(i as u32), c))
+        self.cells
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| c.alive)
+            .map(|(i, c)| (CellId(i as u32), c))
     }
     /// Active cells (alive, not exterior).
     pub fn active_cells(&self) -> impl Iterator<Item = (CellId, &Cell)> {
-        self.cells.iter().enumerate().filter(|(_, c)| c.active()).map(|(i, c)| (CellId(i as u32), c))
+        self.cells
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| c.active())
+            .map(|(i, c)| (CellId(i as u32), c))
     }
     /// The other cell of a patch, seen from `c`.
     pub fn across(&self, p: PatchId, c: CellId) -> CellId {

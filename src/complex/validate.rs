@@ -95,21 +95,34 @@ impl CellComplex {
                 continue;
             }
             v.cells += 1;
-            c.poly.check(tol).map_err(|why| ComplexError::BadCell { cell: i as u32, why })?;
+            c.poly
+                .check(tol)
+                .map_err(|why| ComplexError::BadCell { cell: i as u32, why })?;
             vol += c.poly.volume();
             for &t in &c.poly.tags {
                 let p = &self.patches[t as usize];
                 if !p.alive {
-                    return Err(ComplexError::Topology { cell: i as u32, patch: t, why: "face names a dead patch" });
+                    return Err(ComplexError::Topology {
+                        cell: i as u32,
+                        patch: t,
+                        why: "face names a dead patch",
+                    });
                 }
                 if !p.cells.contains(&CellId(i as u32)) {
-                    return Err(ComplexError::Topology { cell: i as u32, patch: t, why: "patch does not list the cell" });
+                    return Err(ComplexError::Topology {
+                        cell: i as u32,
+                        patch: t,
+                        why: "patch does not list the cell",
+                    });
                 }
             }
         }
         v.volume_rel_error = (vol - self.hull_volume).abs() / self.hull_volume;
         if v.volume_rel_error > 1e-9 {
-            return Err(ComplexError::Volume { sum: vol, hull: self.hull_volume });
+            return Err(ComplexError::Volume {
+                sum: vol,
+                hull: self.hull_volume,
+            });
         }
         for (pi, p) in self.patches.iter().enumerate() {
             if !p.alive {
@@ -122,14 +135,29 @@ impl CellComplex {
                 }
                 let cell = &self.cells[c.idx()];
                 if !cell.alive || !cell.poly.tags.contains(&(pi as u32)) {
-                    return Err(ComplexError::Topology { cell: c.0, patch: pi as u32, why: "cell does not hold the patch" });
+                    return Err(ComplexError::Topology {
+                        cell: c.0,
+                        patch: pi as u32,
+                        why: "cell does not hold the patch",
+                    });
                 }
             }
             let area = p.polygon.area();
             let (pieces, _, slivers) = self.open_pieces(PatchId(pi as u32));
             let open: f64 = pieces.iter().map(|q| q.area()).sum();
             let occluded: f64 = p.occluders.iter().map(|o| o.polygon.area()).sum();
-            let slack = 4.0 * tol.area_abs() + 1e-9 * area;
+            // Subtraction may drop strips narrower than the sliver width along any edge, so
+            // the unaccounted area is bounded by perimeter x sliver width.
+            let per: f64 = {
+                let n = p.polygon.verts.len();
+                (0..n)
+                    .map(|i| {
+                        let (a, b) = (p.polygon.verts[i], p.polygon.verts[(i + 1) % n]);
+                        ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+                    })
+                    .sum()
+            };
+            let slack = 4.0 * tol.area_abs() + per * tol.sliver_width() + 1e-9 * area;
             // Portals never exceed the patch, and occluders cover what is not open.
             let err = if open > area + slack {
                 open - area
@@ -139,20 +167,36 @@ impl CellComplex {
                 0.0
             };
             if err > 0.0 {
-                return Err(ComplexError::Coverage { patch: pi as u32, area, open, occluded, slivers });
+                return Err(ComplexError::Coverage {
+                    patch: pi as u32,
+                    area,
+                    open,
+                    occluded,
+                    slivers,
+                });
             }
             if area > 0.0 {
-                v.max_coverage_rel_error = v.max_coverage_rel_error.max(((open + occluded.min(area - open)) - area).abs() / area);
+                v.max_coverage_rel_error = v
+                    .max_coverage_rel_error
+                    .max(((open + occluded.min(area - open)) - area).abs() / area);
             }
         }
         let mut seen = std::collections::HashSet::new();
         for p in &self.portals {
             let [a, b] = p.cells;
             if !seen.insert((a, b)) {
-                return Err(ComplexError::Portal { a: a.0, b: b.0, why: "pair listed twice" });
+                return Err(ComplexError::Portal {
+                    a: a.0,
+                    b: b.0,
+                    why: "pair listed twice",
+                });
             }
             if a >= b || !self.cells[a.idx()].active() || !self.cells[b.idx()].active() {
-                return Err(ComplexError::Portal { a: a.0, b: b.0, why: "unordered pair or inactive cell" });
+                return Err(ComplexError::Portal {
+                    a: a.0,
+                    b: b.0,
+                    why: "unordered pair or inactive cell",
+                });
             }
         }
         self.check_no_crossing(model)?;
@@ -169,8 +213,11 @@ impl CellComplex {
         let size: Vec<f64> = (0..3).map(|a| ((hi[a] - lo[a]) / k as f64).max(1e-300)).collect();
         let cell_of = |p: &[f64; 3], a: usize| (((p[a] - lo[a]) / size[a]).floor().max(0.0) as usize).min(k - 1);
         let mut grid: Vec<Vec<u32>> = vec![Vec::new(); k * k * k];
-        let polys: Vec<ConvexPolygon> =
-            model.polygons.iter().map(|p| ConvexPolygon::new(p.verts.iter().map(|v| model.vertices[v.idx()]).collect())).collect();
+        let polys: Vec<ConvexPolygon> = model
+            .polygons
+            .iter()
+            .map(|p| ConvexPolygon::new(p.verts.iter().map(|v| model.vertices[v.idx()]).collect()))
+            .collect();
         for (i, p) in polys.iter().enumerate() {
             let (a, b) = bbox(&p.verts);
             for x in cell_of(&a, 0)..=cell_of(&b, 0) {
@@ -196,8 +243,17 @@ impl CellComplex {
                             }
                             stamp[pi as usize] = ci as u32;
                             let poly = &polys[pi as usize];
-                            let plane = Plane::from_points(&poly.verts[0], &poly.verts[1], &poly.verts[2]);
-                            if c.poly.classify(&plane, tol) != Classification::Straddles {
+                            let plane = Plane::from_points(&poly.verts[0], &poly.verts[1], &poly.verts[2]).normalized();
+                            // Only a cut deeper than the snapping tolerances on both sides is a
+                            // crossing: polygons are placed on shared support planes (within
+                            // `coplanar`) and slabs thinner than `weld` are never split.
+                            let thick = tol.coplanar_abs().max(tol.weld_abs());
+                            let ds: Vec<f64> = c.poly.vertices().iter().map(|v| plane.eval(v)).collect();
+                            let (front, back) = ds.iter().fold((0.0f64, 0.0f64), |(f, b), &d| (f.max(d), b.max(-d)));
+                            if front <= thick
+                                || back <= thick
+                                || c.poly.classify(&plane, tol) != Classification::Straddles
+                            {
                                 continue;
                             }
                             let mut cur = Some(poly.clone());
@@ -205,11 +261,22 @@ impl CellComplex {
                                 cur = cur.and_then(|q| q.split(&f, tol).1);
                             }
                             if let Some(q) = cur {
-                                // Shrink-tolerant: a fragment thinner than the weld distance
-                                // along the cell is a refused sliver, not a crossing.
+                                // The fragment crosses the interior only if its centroid lies
+                                // deeper than the snapping tolerance inside every face plane.
                                 let area = q.area();
-                                if area > 16.0 * tol.area_abs() {
-                                    return Err(ComplexError::Crossing { polygon: pi, cell: ci as u32, area });
+                                let ctr = q.centroid();
+                                let depth = c
+                                    .poly
+                                    .planes()
+                                    .iter()
+                                    .map(|f| -f.normalized().eval(&ctr))
+                                    .fold(f64::INFINITY, f64::min);
+                                if area > 16.0 * tol.area_abs() && depth > thick {
+                                    return Err(ComplexError::Crossing {
+                                        polygon: pi,
+                                        cell: ci as u32,
+                                        area,
+                                    });
                                 }
                             }
                         }

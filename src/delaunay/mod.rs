@@ -153,11 +153,11 @@ impl Tetrahedralization {
         let mut unique: Vec<u32> = Vec::with_capacity(n);
         for (r, &i) in order.iter().enumerate() {
             rank[i as usize] = r as u32;
-            if let Some(&u) = unique.last() {
-                if points[u as usize] == points[i as usize] {
-                    representative[i as usize] = u;
-                    continue;
-                }
+            if let Some(&u) = unique.last()
+                && points[u as usize] == points[i as usize]
+            {
+                representative[i as usize] = u;
+                continue;
             }
             unique.push(i);
         }
