@@ -15,6 +15,7 @@ pub mod geom;
 pub mod ids;
 pub mod model;
 pub mod predicates;
+pub mod scenes;
 pub mod tolerances;
 
 pub use ids::{CellId, PolygonId, PortalId, TetId, VertexId};
