@@ -44,9 +44,6 @@ fn two_rooms_joined_by_a_door() {
 }
 
 #[test]
-#[ignore = "known weakness: rotating the model makes its quads non-planar at 1e-16, the \
-            Delaunay tetrahedralization then has near-flat tetrahedra inside walls, and the \
-            complex leaks through them (see the issue note)"]
 fn two_rooms_rotated_and_offset_agree() {
     let (_, a) = build(&scenes::two_rooms());
     let (_, b) = build(&rot_offset(&scenes::two_rooms()));
@@ -98,7 +95,10 @@ fn walls_crossing_many_tetrahedra() {
     // the tetrahedra spanning the whole box.
     s.rect(0, 8.0, (0.0, 8.0), (0.0, 3.0), false);
     s.rect(0, 8.01, (0.0, 8.0), (0.0, 3.0), true);
+    let (_, r) = build(&rot_offset(&s));
     let (_, cx) = build(&s);
+    assert_eq!(r.stats.interior_regions, 3, "{:?}", r.stats);
+    assert_eq!(r.stats.leaks, 0);
     assert!(cx.stats.polygons_clipped > 0);
     assert!(cx.stats.cells_split > 0, "{:?}", cx.stats);
     // Three regions: the two rooms, and the 1 cm slab between the wall pair, which the

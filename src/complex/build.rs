@@ -2,7 +2,7 @@
 
 use super::{Cell, CellComplex, ComplexStats, HULL, Occluder, Patch, PatchId};
 use crate::delaunay::{FACE_SLOTS, Tetrahedralization};
-use crate::geom::{Classification, ConvexPolygon, ConvexPolyhedron, Cut, Plane, PolygonSplit};
+use crate::geom::{Classification, ConvexPolygon, ConvexPolyhedron, Cut, Plane, PolygonSplit, min_volume};
 use crate::ids::{CellId, PolygonId, TetId, VertexId};
 use crate::model::Model;
 use crate::predicates::orient3d;
@@ -110,11 +110,21 @@ impl CellComplex {
                         if p.cells[0] == CellId(t.0) { f } else { f.reversed() }
                     })
                     .collect();
+                let poly = ConvexPolyhedron::from_faces(faces, face_patch[t.idx()].to_vec());
+                // Near-flat tetrahedra (four nearly coplanar input points, e.g. the corners
+                // of a wall quad after rotation) are valid Delaunay cells but hold no space.
+                // Its thickness is its smallest height, 3V / (largest face area); thinner
+                // than the weld distance (the same rule `cut` uses) means flat.
+                let amax = poly.faces.iter().map(|f| f.area()).fold(0.0, f64::max);
+                let tol = &model.tolerances;
+                let flat =
+                    3.0 * tet.volume(t) < tol.weld_abs().max(tol.plane_abs()) * amax || tet.volume(t) < min_volume(tol);
                 Cell {
-                    poly: ConvexPolyhedron::from_faces(faces, face_patch[t.idx()].to_vec()),
+                    poly,
                     tet: t,
                     alive: true,
                     exterior: false,
+                    flat,
                 }
             })
             .collect();
@@ -179,9 +189,17 @@ impl CellComplex {
                 continue;
             }
             let starts = if poly.verts.len() > 3 { 2 } else { 1 };
-            let fan = (0..starts)
-                .map(|s| fans(&poly.verts, s))
-                .find(|tris| tris.iter().all(|t| matches!(wanted.get(&key(t)), Some(Some(_)))));
+            let fan = (0..starts).map(|s| fans(&poly.verts, s)).find(|tris| {
+                tris.iter().all(|t| match wanted.get(&key(t)) {
+                    // A flat tetrahedron beside the face means other faces lie on the
+                    // polygon too: place it geometrically so all of them get occluders.
+                    Some(Some(p)) => self.patches[p.idx()]
+                        .cells
+                        .iter()
+                        .all(|&c| c == HULL || !self.cells[c.idx()].flat),
+                    _ => false,
+                })
+            });
             let Some(tris) = fan else {
                 pending.push(PolygonId(k as u32));
                 continue;
@@ -297,7 +315,10 @@ impl CellComplex {
                     self.attach_on_faces(c, &polygon, &plane, pid, true);
                     next.push(c);
                 }
-                Classification::Back => next.push(c),
+                Classification::Back => {
+                    self.attach_on_faces(c, &polygon, &plane, pid, true);
+                    next.push(c);
+                }
             }
             for c in next {
                 for &t in &self.cells[c.idx()].poly.tags {
@@ -393,13 +414,6 @@ impl CellComplex {
             if !f.verts.iter().all(|v| un.eval(v).abs() <= eps) {
                 continue;
             }
-            // The face's outward normal must point against the polygon's normal for the
-            // polygon's front to face this cell.
-            let fnrm = f.normal();
-            let d = fnrm[0] * un.n[0] + fnrm[1] * un.n[1] + fnrm[2] * un.n[2];
-            if d > -0.5 {
-                continue;
-            }
             let Some(ov) = f.intersect_coplanar(polygon, &self.tol) else {
                 continue;
             };
@@ -407,7 +421,17 @@ impl CellComplex {
                 continue;
             }
             let t = cell.poly.tags[fi] as usize;
+            // The patch is visited from both of its cells: attach once per polygon.
+            if self.patches[t].occluders.iter().any(|o| o.source == pid) {
+                attached = true;
+                continue;
+            }
             let side = if self.patches[t].cells[0] == c { 0 } else { 1 };
+            // The polygon's front faces this cell when this face's outward normal points
+            // against the polygon's normal, else the cell across.
+            let fnrm = f.normal();
+            let d = fnrm[0] * un.n[0] + fnrm[1] * un.n[1] + fnrm[2] * un.n[2];
+            let faces = if d < 0.0 { side } else { 1 - side };
             // Store in the patch's orientation (outward of cells[0]).
             let polygon = if side == 0 { ov } else { ov.reversed() };
             adds.push((
@@ -415,7 +439,7 @@ impl CellComplex {
                 Occluder {
                     polygon,
                     source: pid,
-                    faces: side,
+                    faces,
                 },
             ));
             attached = true;
@@ -525,12 +549,14 @@ impl CellComplex {
             tet,
             alive: true,
             exterior: false,
+            flat: false,
         });
         self.cells.push(Cell {
             poly: back,
             tet,
             alive: true,
             exterior: false,
+            flat: false,
         });
         self.stats.cells_split += 1;
         Some((fid, bid))

@@ -94,6 +94,10 @@ pub struct Cell {
     pub alive: bool,
     /// True once removed by the exterior flood fill.
     pub exterior: bool,
+    /// An unsplit tetrahedron thinner than the weld distance (or with volume below
+    /// [`crate::geom::min_volume`]): four nearly coplanar input points. It keeps the complex conforming but holds no space, so it
+    /// never counts as facing an occluder (thesis 4.2.1 discards such tetrahedra).
+    pub flat: bool,
 }
 
 impl Cell {
@@ -217,10 +221,12 @@ impl CellComplex {
     }
     /// Whether any occluder on the cell's patches faces the cell.
     pub fn faces_occluder(&self, c: CellId) -> bool {
-        self.cells[c.idx()].poly.tags.iter().any(|&t| {
-            let p = &self.patches[t as usize];
-            let side = if p.cells[0] == c { 0 } else { 1 };
-            p.occluders.iter().any(|o| o.faces == side)
-        })
+        let cell = &self.cells[c.idx()];
+        !cell.flat
+            && cell.poly.tags.iter().any(|&t| {
+                let p = &self.patches[t as usize];
+                let side = if p.cells[0] == c { 0 } else { 1 };
+                p.occluders.iter().any(|o| o.faces == side)
+            })
     }
 }

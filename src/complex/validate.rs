@@ -95,9 +95,13 @@ impl CellComplex {
                 continue;
             }
             v.cells += 1;
-            c.poly
-                .check(tol)
-                .map_err(|why| ComplexError::BadCell { cell: i as u32, why })?;
+            // Flat cells are exact, positively oriented tetrahedra (checked by the
+            // tetrahedralization's validation) too thin for a floating-point check.
+            if !c.flat {
+                c.poly
+                    .check(tol)
+                    .map_err(|why| ComplexError::BadCell { cell: i as u32, why })?;
+            }
             vol += c.poly.volume();
             for &t in &c.poly.tags {
                 let p = &self.patches[t as usize];
@@ -230,7 +234,8 @@ impl CellComplex {
         }
         let mut stamp = vec![u32::MAX; polys.len()];
         for (ci, c) in self.cells.iter().enumerate() {
-            if !c.alive {
+            // Flat cells have no interior to cross.
+            if !c.alive || c.flat {
                 continue;
             }
             let (a, b) = c.poly.aabb();
@@ -271,7 +276,17 @@ impl CellComplex {
                                     .iter()
                                     .map(|f| -f.normalized().eval(&ctr))
                                     .fold(f64::INFINITY, f64::min);
-                                if area > 16.0 * tol.area_abs() && depth > thick {
+                                // Fragments narrower than the sliver width can only open
+                                // cracks that the portal graph discards as slivers.
+                                let n = q.verts.len();
+                                let per: f64 = (0..n)
+                                    .map(|i| {
+                                        let (a, b) = (q.verts[i], q.verts[(i + 1) % n]);
+                                        ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+                                    })
+                                    .sum();
+                                let wide = 2.0 * area >= tol.sliver_width() * per;
+                                if area > 16.0 * tol.area_abs() && depth > thick && wide {
                                     return Err(ComplexError::Crossing {
                                         polygon: pi,
                                         cell: ci as u32,
