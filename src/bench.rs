@@ -145,6 +145,14 @@ pub fn run_one(kind: &str, n: usize, validate: bool) -> Option<Row> {
             } else {
                 "skipped".to_string()
             };
+            if std::env::var_os("PF_BENCH_STATS").is_some() {
+                let st = t.stats();
+                eprintln!(
+                    "walk steps/pt {:.2}, cavity tets/pt {:.2}",
+                    st.walk_steps as f64 / pts.len() as f64,
+                    st.cavity_tets as f64 / pts.len() as f64
+                );
+            }
             Row {
                 kind: kind.into(),
                 points: pts.len(),

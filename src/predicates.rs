@@ -141,6 +141,19 @@ fn insphere_filter(a: &P3, b: &P3, c_: &P3, d: &P3, e: &P3) -> Option<i32> {
     let clift = cex * cex + cey * cey + cez * cez;
     let dlift = dex * dex + dey * dey + dez * dez;
     let det = (dlift * abc - clift * dab) + (blift * cda - alift * bcd);
+    // Semi-static stage (as CGAL's static filters): bound the permanent by the largest
+    // coordinate differences, permanent <= 24 mx my mz (mx² + my² + mz²). Cheaper than the
+    // permanent itself and decisive for almost every call; the slack factor covers the
+    // rounding of this product.
+    let mx = aex.abs().max(bex.abs()).max(cex.abs()).max(dex.abs());
+    let my = aey.abs().max(bey.abs()).max(cey.abs()).max(dey.abs());
+    let mz = aez.abs().max(bez.abs()).max(cez.abs()).max(dez.abs());
+    let semi = ISP_BOUND * (24.0 * (1.0 + 1e-10)) * (mx * my * mz) * (mx * mx + my * my + mz * mz);
+    if det > semi {
+        return Some(1);
+    } else if -det > semi {
+        return Some(-1);
+    }
     let (az, bz, cz, dz) = (aez.abs(), bez.abs(), cez.abs(), dez.abs());
     let perm =
         ((cexdey.abs() + dexcey.abs()) * bz + (dexbey.abs() + bexdey.abs()) * cz + (bexcey.abs() + cexbey.abs()) * dz)
@@ -225,7 +238,7 @@ mod lattice {
         })
     }
 
-    fn det<T>(a: [i64; 3], b: [i64; 3], c: [i64; 3], d: [i64; 3]) -> i32
+    pub(super) fn det<T>(a: [i64; 3], b: [i64; 3], c: [i64; 3], d: [i64; 3]) -> i32
     where
         T: From<i64>
             + Copy
@@ -269,29 +282,139 @@ pub fn insphere_sos(pts: [&P3; 5], ranks: [u32; 5]) -> i32 {
 
 #[cold]
 fn insphere_tie(pts: [&P3; 5], ranks: [u32; 5]) -> i32 {
-    // Order the five points by decreasing rank. The leading term of the perturbed
-    // determinant belongs to the highest-ranked point: its coefficient is the orientation of
-    // the other four (with the query point substituted in that point's slot). If it is zero
-    // (those four are coplanar), the next term decides. Two terms always suffice
-    // (Devillers & Teillaud, Lemma 3), because (a, b, c, d) is non-degenerate.
+    sos_tie(ranks, |q| orient3d(pts[q[0]], pts[q[1]], pts[q[2]], pts[q[3]]))
+}
+
+/// The symbolic-perturbation case analysis for a cospherical tie among points 0..5 (point
+/// 4 is the query), given an exact orientation oracle on local indices.
+///
+/// Order the five points by decreasing rank. The leading term of the perturbed
+/// determinant belongs to the highest-ranked point: its coefficient is the orientation of
+/// the other four (with the query point substituted in that point's slot). If it is zero
+/// (those four are coplanar), the next term decides. Two terms always suffice
+/// (Devillers & Teillaud, Lemma 3), because (a, b, c, d) is non-degenerate. Same case
+/// analysis as CGAL's `side_of_oriented_sphere` with perturbation.
+#[inline]
+pub fn sos_tie(ranks: [u32; 5], orient: impl Fn([usize; 4]) -> i32) -> i32 {
     let mut order = [0usize, 1, 2, 3, 4];
     order.sort_unstable_by(|&i, &j| ranks[j].cmp(&ranks[i]));
-    let [a, b, cc, d, e] = pts;
     for &i in &order[..4] {
         let o = match i {
             4 => return -1, // the query itself is the most perturbed: pushed outside
-            3 => orient3d(a, b, cc, e),
-            2 => orient3d(a, b, e, d),
-            1 => orient3d(a, e, cc, d),
-            _ => orient3d(e, b, cc, d),
+            3 => orient([0, 1, 2, 4]),
+            2 => orient([0, 1, 4, 3]),
+            1 => orient([0, 4, 2, 3]),
+            _ => orient([4, 1, 2, 3]),
         };
         if o != 0 {
-            // Same case analysis as CGAL's `side_of_oriented_sphere` with perturbation:
-            // the coefficient is the orientation with the query in point i's slot.
             return o;
         }
     }
     unreachable!("insphere_sos: tetrahedron is degenerate")
+}
+
+/// Exact predicates by point index for point sets on a small binary lattice: every
+/// coordinate times 2^k (one k ≤ 8 for the whole set) is an integer of magnitude ≤ 2^22.
+/// Architectural and grid inputs (integer or half-unit coordinates) qualify; for them exact
+/// ties are the common case, and integer arithmetic answers them without any filter:
+/// `i64` when every coordinate range is below 2^10 (insphere terms stay below 2^57), `i128`
+/// otherwise (below 2^122). Scaling by 2^k is exact, so the signs are those of the input.
+#[derive(Clone, Debug)]
+pub struct LatticePoints {
+    pts: Vec<[i64; 3]>,
+    small: bool,
+}
+
+impl LatticePoints {
+    /// The lattice representation of `points`, if they qualify.
+    pub fn detect(points: &[P3]) -> Option<Self> {
+        const LIMIT: f64 = (1u64 << 22) as f64;
+        'k: for k in 0..=8 {
+            let s = (1u32 << k) as f64;
+            let mut pts = Vec::with_capacity(points.len());
+            let mut lo = [i64::MAX; 3];
+            let mut hi = [i64::MIN; 3];
+            for p in points {
+                let mut q = [0i64; 3];
+                for a in 0..3 {
+                    let x = p[a] * s;
+                    let i = x as i64;
+                    if x.abs() > LIMIT || i as f64 != x {
+                        if x.abs() > LIMIT {
+                            return None;
+                        }
+                        continue 'k;
+                    }
+                    q[a] = i;
+                    lo[a] = lo[a].min(i);
+                    hi[a] = hi[a].max(i);
+                }
+                pts.push(q);
+            }
+            let small = (0..3).all(|a| hi[a].saturating_sub(lo[a]) < 1 << 10);
+            return Some(LatticePoints { pts, small });
+        }
+        None
+    }
+
+    #[inline(always)]
+    fn d(&self, p: u32, o: [i64; 3]) -> [i64; 3] {
+        let q = self.pts[p as usize];
+        [q[0] - o[0], q[1] - o[1], q[2] - o[2]]
+    }
+
+    /// Our orient3d convention (sign of det[b-a, c-a, d-a]) by index.
+    #[inline]
+    pub fn orient3d(&self, a: u32, b: u32, c: u32, d: u32) -> i32 {
+        let o = self.pts[a as usize];
+        let (u, v, w) = (self.d(b, o), self.d(c, o), self.d(d, o));
+        if self.small {
+            det3::<i64>(u, v, w)
+        } else {
+            det3::<i128>(u, v, w)
+        }
+    }
+
+    /// Our insphere convention (positive inside a positively oriented tetrahedron) by index.
+    #[inline]
+    pub fn insphere(&self, a: u32, b: u32, c: u32, d: u32, e: u32) -> i32 {
+        let o = self.pts[e as usize];
+        // Shewchuk's convention is positive for his positive orientation = our negative:
+        // swap a and b.
+        let (pa, pb, pc, pd) = (self.d(b, o), self.d(a, o), self.d(c, o), self.d(d, o));
+        if self.small {
+            lattice::det::<i64>(pa, pb, pc, pd)
+        } else {
+            lattice::det::<i128>(pa, pb, pc, pd)
+        }
+    }
+
+    /// [`LatticePoints::insphere`] with the symbolic perturbation of [`insphere_sos`].
+    #[inline]
+    pub fn insphere_sos(&self, v: [u32; 5], ranks: impl Fn(u32) -> u32) -> i32 {
+        let s = self.insphere(v[0], v[1], v[2], v[3], v[4]);
+        if s != 0 {
+            return s;
+        }
+        sos_tie(v.map(ranks), |q| self.orient3d(v[q[0]], v[q[1]], v[q[2]], v[q[3]]))
+    }
+}
+
+fn det3<T>(u: [i64; 3], v: [i64; 3], w: [i64; 3]) -> i32
+where
+    T: From<i64>
+        + Copy
+        + Ord
+        + Default
+        + std::ops::Mul<Output = T>
+        + std::ops::Sub<Output = T>
+        + std::ops::Add<Output = T>,
+{
+    let [u, v, w] = [u, v, w].map(|p| p.map(T::from));
+    let det =
+        u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) + u[2] * (v[0] * w[1] - v[1] * w[0]);
+    let zero = T::default();
+    (det > zero) as i32 - (det < zero) as i32
 }
 
 /// Exact sign of the 2D orientation of the projections of `a, b, c` onto the coordinate
@@ -400,6 +523,26 @@ mod tests {
             assert_eq!(insphere(&a, &b, &cc, &d, &e), want_s);
             assert_eq!(insphere_exact(&a, &b, &cc, &d, &e), want_s);
         }
+    }
+
+    #[test]
+    fn lattice_kernel_agrees_with_float_kernel() {
+        let mut r = crate::delaunay::SplitMix64(5);
+        for scale in [1.0, 0.5, 100.0] {
+            let pts: Vec<P3> = (0..200).map(|_| [0; 3].map(|_| r.below(6) as f64 * scale)).collect();
+            let lat = LatticePoints::detect(&pts).expect("lattice");
+            for _ in 0..5000 {
+                let i = [0; 5].map(|_| r.below(pts.len()) as u32);
+                let p = i.map(|k| &pts[k as usize]);
+                assert_eq!(lat.orient3d(i[0], i[1], i[2], i[3]), orient3d(p[0], p[1], p[2], p[3]));
+                assert_eq!(
+                    lat.insphere(i[0], i[1], i[2], i[3], i[4]),
+                    insphere(p[0], p[1], p[2], p[3], p[4])
+                );
+            }
+        }
+        assert!(LatticePoints::detect(&[[0.1, 0.0, 0.0]]).is_none());
+        assert!(LatticePoints::detect(&[[1e9, 0.0, 0.0]]).is_none());
     }
 
     #[test]

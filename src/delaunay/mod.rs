@@ -29,7 +29,7 @@ pub use sort::SplitMix64;
 pub use validate::{ValidationError, ValidationReport};
 
 use crate::ids::{TetId, VertexId};
-use crate::predicates::{P3, insphere, insphere_sos, orient3d};
+use crate::predicates::{LatticePoints, P3, insphere, orient3d, sos_tie};
 
 /// The vertex slot value of the point at infinity.
 pub const INFINITE: u32 = u32::MAX;
@@ -99,6 +99,8 @@ pub struct Tetrahedralization {
 struct Builder<'a> {
     pts: &'a [P3],
     rank: &'a [u32],
+    /// Integer coordinates when the input lies on a small binary lattice.
+    lat: Option<&'a LatticePoints>,
     /// Vertices and neighbours side by side: one cache line fetch per tetrahedron visited.
     t: Vec<TetSlot>,
     mark: Vec<u32>,
@@ -172,7 +174,8 @@ impl Tetrahedralization {
             return Err(DelaunayError::TooFewPoints { distinct });
         }
         let ins = sort::brio_hilbert(points, unique, seed);
-        let mut b = Builder::new(points, &rank, seed, stats);
+        let lattice = LatticePoints::detect(points);
+        let mut b = Builder::new(points, &rank, lattice.as_ref(), seed, stats);
         let start = b.initial(&ins)?;
         for (k, &p) in ins.iter().enumerate() {
             if start.contains(&k) {
@@ -282,11 +285,12 @@ fn sub(a: &P3, b: &P3) -> P3 {
 }
 
 impl<'a> Builder<'a> {
-    fn new(pts: &'a [P3], rank: &'a [u32], seed: u64, stats: BuildStats) -> Self {
+    fn new(pts: &'a [P3], rank: &'a [u32], lat: Option<&'a LatticePoints>, seed: u64, stats: BuildStats) -> Self {
         let cap = pts.len() * 7;
         Builder {
             pts,
             rank,
+            lat,
             t: Vec::with_capacity(cap),
             mark: Vec::with_capacity(cap),
             epoch: 0,
@@ -372,20 +376,29 @@ impl<'a> Builder<'a> {
     /// For infinite tetrahedra the infinite vertex must not be at slot `s`... unless it is
     /// being replaced, in which case this is the plain orientation of the finite face and q.
     #[inline]
-    fn orient_with(&self, v: &[u32; 4], s: usize, q: &P3) -> i32 {
-        let g = |k: usize| if k == s { q } else { self.p(v[k]) };
-        orient3d(g(0), g(1), g(2), g(3))
+    fn orient_with(&self, v: &[u32; 4], s: usize, p: u32) -> i32 {
+        let mut w = *v;
+        w[s] = p;
+        if let Some(l) = self.lat {
+            return l.orient3d(w[0], w[1], w[2], w[3]);
+        }
+        orient3d(self.p(w[0]), self.p(w[1]), self.p(w[2]), self.p(w[3]))
     }
 
     #[inline]
     fn insphere_finite(&self, v: &[u32; 4], p: u32) -> i32 {
+        let r = self.rank;
+        if let Some(l) = self.lat {
+            return l.insphere_sos([v[0], v[1], v[2], v[3], p], |x| r[x as usize]);
+        }
         let pts = [self.p(v[0]), self.p(v[1]), self.p(v[2]), self.p(v[3]), self.p(p)];
         let s = insphere(pts[0], pts[1], pts[2], pts[3], pts[4]);
         if s != 0 {
             return s;
         }
-        let r = self.rank;
-        insphere_sos(pts, [v[0], v[1], v[2], v[3], p].map(|x| r[x as usize]))
+        sos_tie([v[0], v[1], v[2], v[3], p].map(|x| r[x as usize]), |q| {
+            orient3d(pts[q[0]], pts[q[1]], pts[q[2]], pts[q[3]])
+        })
     }
 
     /// Whether point `p` conflicts with tetrahedron `t` (lies inside its circumsphere, or
@@ -394,7 +407,7 @@ impl<'a> Builder<'a> {
     fn in_conflict(&self, t: u32, p: u32) -> bool {
         let v = &self.t[t as usize].v;
         if let Some(k) = v.iter().position(|&x| x == INFINITE) {
-            let o = self.orient_with(v, k, self.p(p));
+            let o = self.orient_with(v, k, p);
             if o != 0 {
                 return o > 0;
             }
@@ -408,7 +421,6 @@ impl<'a> Builder<'a> {
     /// Remembering stochastic walk from the last created tetrahedron to one whose closure
     /// contains `p`, or to an infinite tetrahedron whose hull face `p` is strictly beyond.
     fn locate(&mut self, p: u32) -> u32 {
-        let q = self.p(p);
         let mut t = self.last;
         let mut prev = u32::MAX;
         loop {
@@ -424,7 +436,7 @@ impl<'a> Builder<'a> {
                 if n == prev {
                     continue;
                 }
-                if self.orient_with(&v, i, q) < 0 {
+                if self.orient_with(&v, i, p) < 0 {
                     next = Some(n);
                     break;
                 }
@@ -456,7 +468,6 @@ impl<'a> Builder<'a> {
     /// across the faces of `t` whose plane contains `p`.
     #[cold]
     fn seed_on_boundary(&mut self, t0: u32, p: u32) -> u32 {
-        let q = self.p(p);
         let no = 2 * self.epoch + 1;
         self.stack.clear();
         self.stack.push(t0);
@@ -468,7 +479,7 @@ impl<'a> Builder<'a> {
             }
             for i in 0..4 {
                 let n = self.t[t as usize].n[i] >> 2;
-                if self.mark[n as usize] == no || self.orient_with(&v, i, q) != 0 {
+                if self.mark[n as usize] == no || self.orient_with(&v, i, p) != 0 {
                     continue;
                 }
                 if self.in_conflict(n, p) {
