@@ -45,10 +45,36 @@ enum Cmd {
         #[arg(long)]
         no_validate: bool,
     },
+    /// Generate test models (OBJ or .mesh by the output's extension).
+    Gen {
+        #[command(subcommand)]
+        what: GenCmd,
+    },
     /// Benchmarks that print tables (performance goals live here, not in tests).
     Bench {
         #[command(subcommand)]
         what: BenchCmd,
+    },
+}
+
+#[derive(Subcommand)]
+enum GenCmd {
+    /// A building of nx × ny rooms (4 × 4 × 3 m, walls 0.5 m) joined by door corridors,
+    /// every surface tessellated into quads; about 640 triangles per room at --tess 8.
+    /// Scales to a million triangles for benchmarks.
+    Rooms {
+        /// Rooms along x.
+        #[arg(long, default_value_t = 3)]
+        nx: usize,
+        /// Rooms along y.
+        #[arg(long, default_value_t = 2)]
+        ny: usize,
+        /// Quads per 4 m of wall (rounded down to a multiple of 4).
+        #[arg(long, default_value_t = 8)]
+        tess: usize,
+        /// Output file (.obj or .mesh).
+        #[arg(long)]
+        out: PathBuf,
     },
 }
 
@@ -78,6 +104,9 @@ fn main() -> Result<()> {
         Cmd::Info { model } => info(&model),
         Cmd::Tetra { model, no_validate } => tetra(&model, !no_validate),
         Cmd::Complex { model, no_validate } => complex(&model, !no_validate),
+        Cmd::Gen {
+            what: GenCmd::Rooms { nx, ny, tess, out },
+        } => gen_rooms(nx, ny, tess, &out),
         Cmd::Bench { what } => match what {
             BenchCmd::One { kind, n } => {
                 let row = bench::run_one(&kind, n, true).with_context(|| format!("unknown input kind {kind:?}"))?;
@@ -215,6 +244,30 @@ fn complex(path: &std::path::Path, validate: bool) -> Result<()> {
             Err(e) => bail!("complex validation failed: {e}"),
         }
     }
+    Ok(())
+}
+
+fn gen_rooms(nx: usize, ny: usize, tess: usize, out: &std::path::Path) -> Result<()> {
+    use portalfind::model::write;
+    let (s, centres) = portalfind::scenes::room_grid(nx, ny, tess);
+    let text = match out.extension().and_then(|e| e.to_str()) {
+        Some("obj") => write::obj_text(
+            &format!("portalfind gen rooms --nx {nx} --ny {ny} --tess {tess}\nroom centres: {centres:?}"),
+            &s.vertices,
+            &s.polygons,
+        ),
+        Some("mesh") => write::mesh_text(&s.vertices, &s.polygons),
+        _ => bail!("output {} must end in .obj or .mesh", out.display()),
+    };
+    write::write_atomic(out, text.as_bytes()).with_context(|| format!("cannot write {}", out.display()))?;
+    let tris: usize = s.polygons.iter().map(|p| p.len() - 2).sum();
+    println!(
+        "wrote {}: {} rooms, {} polygons ({} triangles)",
+        out.display(),
+        nx * ny,
+        s.polygons.len(),
+        tris
+    );
     Ok(())
 }
 

@@ -86,3 +86,113 @@ pub fn two_rooms() -> Soup {
     s.rect(1, 2.5, (0.0, 2.0), (4.0, 5.0), false);
     s
 }
+
+impl Soup {
+    /// [`Soup::rect`] tessellated into `n.0 × n.1` equal quads; cells for which `skip(i, j)`
+    /// holds are left out (openings such as doors).
+    #[allow(clippy::too_many_arguments)]
+    pub fn rect_tess(
+        &mut self,
+        axis: usize,
+        at: f64,
+        u: (f64, f64),
+        v: (f64, f64),
+        facing_positive: bool,
+        n: (usize, usize),
+        skip: impl Fn(usize, usize) -> bool,
+    ) {
+        let (du, dv) = ((u.1 - u.0) / n.0 as f64, (v.1 - v.0) / n.1 as f64);
+        for i in 0..n.0 {
+            for j in 0..n.1 {
+                if skip(i, j) {
+                    continue;
+                }
+                let u0 = u.0 + du * i as f64;
+                let v0 = v.0 + dv * j as f64;
+                let u1 = if i + 1 == n.0 { u.1 } else { u0 + du };
+                let v1 = if j + 1 == n.1 { v.1 } else { v0 + dv };
+                self.rect(axis, at, (u0, u1), (v0, v1), facing_positive);
+            }
+        }
+    }
+}
+
+/// A scalable test building: `nx × ny` rooms (4 × 4 × 3, walls 0.5 thick) in a grid, each
+/// joined to its +x and +y neighbours by a door corridor (1 wide, 2 high), every surface
+/// tessellated into quads of about `4 / tess` units. Returns the soup and one sample point
+/// per room (the room centres), row-major.
+pub fn room_grid(nx: usize, ny: usize, tess: usize) -> (Soup, Vec<P3>) {
+    let tess = tess.max(4) / 4 * 4; // a multiple of 4 so the door edges fall on grid lines
+    let (w, h, gap) = (4.0, 3.0, 0.5);
+    let pitch = w + gap;
+    let mut s = Soup::default();
+    let mut centres = Vec::new();
+    let nz = (tess * 3 / 4).max(3);
+    // Door: u in [1.5, 2.5] of the 4 m wall, z in [0, 2]; with tess cells of 4/tess and
+    // nz cells of 3/nz, door cells are those fully inside.
+    let cu = w / tess as f64;
+    let cz = h / nz as f64;
+    let door = move |i: usize, j: usize| {
+        let (u0, z0) = (i as f64 * cu, j as f64 * cz);
+        u0 >= 1.5 - 1e-9 && u0 + cu <= 2.5 + 1e-9 && z0 + cz <= 2.0 + 1e-9
+    };
+    for ry in 0..ny {
+        for rx in 0..nx {
+            let (x0, y0) = (rx as f64 * pitch, ry as f64 * pitch);
+            let (x1, y1) = (x0 + w, y0 + w);
+            centres.push([x0 + w / 2.0, y0 + w / 2.0, h / 2.0]);
+            let none = |_: usize, _: usize| false;
+            s.rect_tess(2, 0.0, (x0, x1), (y0, y1), true, (tess, tess), none);
+            s.rect_tess(2, h, (x0, x1), (y0, y1), false, (tess, tess), none);
+            // x walls: u = y, v = z.
+            let east_door = rx + 1 < nx;
+            let west_door = rx > 0;
+            s.rect_tess(0, x0, (y0, y1), (0.0, h), true, (tess, nz), |i, j| {
+                west_door && door(i, j)
+            });
+            s.rect_tess(0, x1, (y0, y1), (0.0, h), false, (tess, nz), |i, j| {
+                east_door && door(i, j)
+            });
+            // y walls: u = z, v = x (swap the door test's arguments).
+            let north_door = ry + 1 < ny;
+            let south_door = ry > 0;
+            s.rect_tess(1, y0, (0.0, h), (x0, x1), true, (nz, tess), |j, i| {
+                south_door && door(i, j)
+            });
+            s.rect_tess(1, y1, (0.0, h), (x0, x1), false, (nz, tess), |j, i| {
+                north_door && door(i, j)
+            });
+            let k = (tess / 4).max(1);
+            if east_door {
+                // Corridor from x1 to x1 + gap at y in [y0+1.5, y0+2.5], z in [0, 2].
+                let (ya, yb) = (y0 + 1.5, y0 + 2.5);
+                s.rect_tess(2, 0.0, (x1, x1 + gap), (ya, yb), true, (1, k), none);
+                s.rect_tess(2, 2.0, (x1, x1 + gap), (ya, yb), false, (1, k), none);
+                s.rect_tess(1, ya, (0.0, 2.0), (x1, x1 + gap), true, (k, 1), none);
+                s.rect_tess(1, yb, (0.0, 2.0), (x1, x1 + gap), false, (k, 1), none);
+            }
+            if north_door {
+                let (xa, xb) = (x0 + 1.5, x0 + 2.5);
+                s.rect_tess(2, 0.0, (xa, xb), (y1, y1 + gap), true, (k, 1), none);
+                s.rect_tess(2, 2.0, (xa, xb), (y1, y1 + gap), false, (k, 1), none);
+                s.rect_tess(0, xa, (y1, y1 + gap), (0.0, 2.0), true, (1, k), none);
+                s.rect_tess(0, xb, (y1, y1 + gap), (0.0, 2.0), false, (1, k), none);
+            }
+        }
+    }
+    (s, centres)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn room_grid_counts() {
+        let (s, c) = room_grid(2, 2, 8);
+        assert_eq!(c.len(), 4);
+        // Each room: floor and ceiling 64 quads, walls 8 x 6 = 48 quads each, minus door
+        // cells (2 columns x 5 rows = 10... depends on tessellation) on inner walls.
+        assert!(s.polygons.len() > 4 * (128 + 4 * 48 - 20));
+    }
+}

@@ -94,6 +94,7 @@ mod mesh;
 mod obj;
 mod report;
 mod triangulate;
+pub mod write;
 
 use std::path::Path;
 
