@@ -155,7 +155,16 @@ fn tetra(path: &std::path::Path, validate: bool) -> Result<()> {
     println!("vertices     {}", t.num_vertices());
     println!("tetrahedra   {}", t.num_tets());
     println!("hull faces   {}", t.num_hull_faces());
-    println!("build time   {build:.3} s");
+    let st = t.stats();
+    println!(
+        "build time   {build:.3} s (rank {:.3}, order {:.3}, insert {:.3}, compact {:.3}; {:.2} walk steps and {:.2} cavity tetrahedra per point)",
+        st.seconds[0],
+        st.seconds[1],
+        st.seconds[2],
+        st.seconds[3],
+        st.walk_steps as f64 / st.input_points as f64,
+        st.cavity_tets as f64 / st.input_points as f64
+    );
     if validate {
         let t1 = Instant::now();
         let r = t.validate();

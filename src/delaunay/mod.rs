@@ -80,6 +80,9 @@ pub struct BuildStats {
     pub walk_steps: u64,
     /// Tetrahedra removed in cavities (total over all insertions).
     pub cavity_tets: u64,
+    /// Seconds spent ranking (lexicographic sort, duplicates), ordering (BRIO + Hilbert),
+    /// inserting, and compacting the arrays.
+    pub seconds: [f64; 4],
 }
 
 /// A Delaunay tetrahedralization of a point set, covering its convex hull.
@@ -142,6 +145,7 @@ impl Tetrahedralization {
             return Err(DelaunayError::NonFinite { index, point: *p });
         }
         // Lexicographic order gives the perturbation ranks and finds exact duplicates.
+        let t_start = std::time::Instant::now();
         let mut order: Vec<u32> = (0..n as u32).collect();
         order.sort_unstable_by(|&a, &b| {
             let (p, q) = (&points[a as usize], &points[b as usize]);
@@ -173,7 +177,9 @@ impl Tetrahedralization {
         if distinct < 4 {
             return Err(DelaunayError::TooFewPoints { distinct });
         }
+        let t_rank = t_start.elapsed().as_secs_f64();
         let ins = sort::brio_hilbert(points, unique, seed);
+        let t_sort = t_start.elapsed().as_secs_f64();
         let lattice = LatticePoints::detect(points);
         let mut b = Builder::new(points, &rank, lattice.as_ref(), seed, stats);
         let start = b.initial(&ins)?;
@@ -183,7 +189,14 @@ impl Tetrahedralization {
             }
             b.insert(p);
         }
+        let t_insert = t_start.elapsed().as_secs_f64();
         let (tets, adj, n_finite) = b.compact();
+        b.stats.seconds = [
+            t_rank,
+            t_sort - t_rank,
+            t_insert - t_sort,
+            t_start.elapsed().as_secs_f64() - t_insert,
+        ];
         let stats = std::mem::take(&mut b.stats);
         drop(b);
         Ok(Tetrahedralization {
