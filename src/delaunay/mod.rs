@@ -93,8 +93,8 @@ pub struct Tetrahedralization {
     representative: Vec<u32>,
     /// Perturbation rank: position in lexicographic (x, y, z) order.
     rank: Vec<u32>,
-    tets: Vec<[u32; 4]>,
-    adj: Vec<[u32; 4]>,
+    /// Vertices and encoded neighbours of each tetrahedron: finite first, then infinite.
+    slots: Vec<TetSlot>,
     n_finite: usize,
     stats: BuildStats,
 }
@@ -190,7 +190,7 @@ impl Tetrahedralization {
             b.insert(p);
         }
         let t_insert = t_start.elapsed().as_secs_f64();
-        let (tets, adj, n_finite) = b.compact();
+        let (slots, n_finite) = b.compact();
         b.stats.seconds = [
             t_rank,
             t_sort - t_rank,
@@ -203,8 +203,7 @@ impl Tetrahedralization {
             points: points.to_vec(),
             representative,
             rank,
-            tets,
-            adj,
+            slots,
             n_finite,
             stats,
         })
@@ -228,7 +227,7 @@ impl Tetrahedralization {
     }
     /// Number of hull faces (= number of infinite tetrahedra).
     pub fn num_hull_faces(&self) -> usize {
-        self.tets.len() - self.n_finite
+        self.slots.len() - self.n_finite
     }
     /// Number of distinct vertices.
     pub fn num_vertices(&self) -> usize {
@@ -241,41 +240,40 @@ impl Tetrahedralization {
     /// Vertices of a finite tetrahedron, positively oriented.
     #[inline]
     pub fn tet(&self, t: TetId) -> [VertexId; 4] {
-        self.tets[t.idx()].map(VertexId)
+        self.slots[t.idx()].v.map(VertexId)
     }
     /// All finite tetrahedra.
     pub fn tets(&self) -> impl Iterator<Item = (TetId, [VertexId; 4])> + '_ {
-        self.tets[..self.n_finite]
+        self.slots[..self.n_finite]
             .iter()
             .enumerate()
-            .map(|(i, v)| (TetId(i as u32), v.map(VertexId)))
+            .map(|(i, s)| (TetId(i as u32), s.v.map(VertexId)))
     }
     /// The finite tetrahedron across face `face` (opposite vertex slot `face`) of `t`, and
     /// the index of the shared face in it; `None` on the convex hull.
     #[inline]
     pub fn neighbor(&self, t: TetId, face: usize) -> Option<(TetId, usize)> {
-        let a = self.adj[t.idx()][face];
+        let a = self.slots[t.idx()].n[face];
         let n = (a >> 2) as usize;
         (n < self.n_finite).then_some((TetId(n as u32), (a & 3) as usize))
     }
     /// The three vertices of face `face` of `t`, counter-clockwise seen from outside `t`.
     #[inline]
     pub fn face(&self, t: TetId, face: usize) -> [VertexId; 3] {
-        let v = self.tets[t.idx()];
+        let v = self.slots[t.idx()].v;
         FACE_SLOTS[face].map(|s| VertexId(v[s]))
     }
     /// Hull faces: (finite tetrahedron, face index) pairs whose outside is the unbounded region.
     pub fn hull_faces(&self) -> impl Iterator<Item = (TetId, usize)> + '_ {
-        self.tets[self.n_finite..].iter().enumerate().map(move |(k, v)| {
-            let t = self.n_finite + k;
-            let s = v.iter().position(|&x| x == INFINITE).expect("infinite tet");
-            let a = self.adj[t][s];
+        self.slots[self.n_finite..].iter().map(move |slot| {
+            let s = slot.v.iter().position(|&x| x == INFINITE).expect("infinite tet");
+            let a = slot.n[s];
             (TetId(a >> 2), (a & 3) as usize)
         })
     }
     /// Signed volume of a finite tetrahedron (positive; computed in floating point).
     pub fn volume(&self, t: TetId) -> f64 {
-        let [a, b, c, d] = self.tets[t.idx()].map(|v| self.points[v as usize]);
+        let [a, b, c, d] = self.slots[t.idx()].v.map(|v| self.points[v as usize]);
         let u = sub(&b, &a);
         let v = sub(&c, &a);
         let w = sub(&d, &a);
@@ -287,8 +285,7 @@ impl Tetrahedralization {
         self.points.capacity() * 24
             + self.representative.capacity() * 4
             + self.rank.capacity() * 4
-            + self.tets.capacity() * 16
-            + self.adj.capacity() * 16
+            + self.slots.capacity() * 32
     }
 }
 
@@ -623,44 +620,47 @@ impl<'a> Builder<'a> {
         }
     }
 
-    /// Renumbers so finite tetrahedra come first and drops dead slots.
-    fn compact(&mut self) -> (Vec<[u32; 4]>, Vec<[u32; 4]>, usize) {
+    /// Renumbers so finite tetrahedra come first and drops dead slots, in place: finite
+    /// slots only move towards the front, the few infinite ones go through a side buffer,
+    /// then every neighbour reference is remapped.
+    fn compact(&mut self) -> (Vec<TetSlot>, usize) {
         let n = self.t.len();
         let mut map = vec![u32::MAX; n];
         let mut next = 0u32;
         for (t, s) in self.t.iter().enumerate() {
-            let v = &s.v;
-            if v[0] != DEAD && !v.contains(&INFINITE) {
+            if s.v[0] != DEAD && !s.v.contains(&INFINITE) {
                 map[t] = next;
                 next += 1;
             }
         }
         let n_finite = next as usize;
+        let mut infinite = Vec::new();
         for (t, s) in self.t.iter().enumerate() {
-            let v = &s.v;
-            if v[0] != DEAD && v.contains(&INFINITE) {
+            if s.v[0] != DEAD && s.v.contains(&INFINITE) {
                 map[t] = next;
                 next += 1;
+                infinite.push(*s);
             }
         }
-        let total = next as usize;
-        let mut tets = vec![[0u32; 4]; total];
-        let mut adj = vec![[0u32; 4]; total];
         for t in 0..n {
-            let m = map[t];
-            if m == u32::MAX {
-                continue;
+            let m = map[t] as usize;
+            if m < n_finite {
+                self.t[m] = self.t[t];
             }
-            tets[m as usize] = self.t[t].v;
-            adj[m as usize] = self.t[t].n.map(|a| map[(a >> 2) as usize] * 4 + (a & 3));
         }
-        self.t = Vec::new();
+        let mut slots = std::mem::take(&mut self.t);
+        slots.truncate(n_finite);
+        slots.extend(infinite);
+        slots.shrink_to_fit();
+        for s in &mut slots {
+            s.n = s.n.map(|a| map[(a >> 2) as usize] * 4 + (a & 3));
+        }
         self.mark = Vec::new();
-        (tets, adj, n_finite)
+        (slots, n_finite)
     }
 }
 
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug)]
 #[repr(C, align(32))]
 struct TetSlot {
     v: [u32; 4],

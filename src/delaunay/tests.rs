@@ -210,10 +210,10 @@ fn rotated_and_offset_points() {
 fn corrupted_tetrahedralizations_fail_validation() {
     let (t, _) = check(&grid(3));
     let mut bad = t.clone();
-    bad.tets[0].swap(0, 1);
+    bad.slots[0].v.swap(0, 1);
     assert!(matches!(bad.validate(), Err(ValidationError::BadOrientation { .. })));
     let mut bad = t.clone();
-    bad.adj[0][0] = bad.adj[0][1];
+    bad.slots[0].n[0] = bad.slots[0].n[1];
     assert!(bad.validate().is_err());
     // Flip an interior face by hand: the 2-3 flip keeps a valid triangulation only if
     // convex, but always breaks local Delaunay or adjacency; validation must notice.

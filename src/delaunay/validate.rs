@@ -98,12 +98,12 @@ impl Tetrahedralization {
         let nf = self.n_finite;
         let mut rep = ValidationReport {
             tets: nf,
-            hull_faces: self.tets.len() - nf,
+            hull_faces: self.slots.len() - nf,
             ..Default::default()
         };
         let p = |v: u32| &self.points[v as usize];
-        for t in 0..self.tets.len() {
-            let v = self.tets[t];
+        for t in 0..self.slots.len() {
+            let v = self.slots[t].v;
             let finite = t < nf;
             if finite == v.contains(&INFINITE) {
                 return Err(ValidationError::Adjacency {
@@ -119,9 +119,9 @@ impl Tetrahedralization {
                 }
             }
             for i in 0..4 {
-                let a = self.adj[t][i];
+                let a = self.slots[t].n[i];
                 let (n, j) = ((a >> 2) as usize, (a & 3) as usize);
-                if n >= self.tets.len() || self.adj[n][j] != (t * 4 + i) as u32 {
+                if n >= self.slots.len() || self.slots[n].n[j] != (t * 4 + i) as u32 {
                     return Err(ValidationError::Adjacency {
                         tet: t,
                         face: i,
@@ -129,7 +129,7 @@ impl Tetrahedralization {
                     });
                 }
                 let mut f1 = FACE_SLOTS[i].map(|s| v[s]);
-                let mut f2 = FACE_SLOTS[j].map(|s| self.tets[n][s]);
+                let mut f2 = FACE_SLOTS[j].map(|s| self.slots[n].v[s]);
                 f1.sort_unstable();
                 f2.sort_unstable();
                 if f1 != f2 {
@@ -149,7 +149,7 @@ impl Tetrahedralization {
                 if finite && n < nf && t < n {
                     // Apex of the neighbour must be strictly on the other side of face i.
                     let f = FACE_SLOTS[i].map(|s| p(v[s]));
-                    let apex = p(self.tets[n][j]);
+                    let apex = p(self.slots[n].v[j]);
                     if orient3d(f[0], f[1], f[2], apex) <= 0 {
                         return Err(ValidationError::Overlap { a: t, b: n });
                     }
@@ -167,15 +167,15 @@ impl Tetrahedralization {
         // strictly outside this face's plane. Hull faces are the finite faces of infinite
         // tetrahedra; two hull faces share an edge exactly when their infinite tetrahedra
         // are adjacent across the face containing the infinite vertex and that edge.
-        for t in nf..self.tets.len() {
-            let v = self.tets[t];
+        for t in nf..self.slots.len() {
+            let v = self.slots[t].v;
             let k = v.iter().position(|&x| x == INFINITE).expect("checked above");
             let face: Vec<u32> = FACE_SLOTS[k].iter().map(|&s| v[s]).collect();
             for i in 0..4 {
                 if i == k {
                     continue;
                 }
-                let a = self.adj[t][i];
+                let a = self.slots[t].n[i];
                 let (n, _) = ((a >> 2) as usize, (a & 3) as usize);
                 if n < nf {
                     return Err(ValidationError::Adjacency {
@@ -185,7 +185,7 @@ impl Tetrahedralization {
                     });
                 }
                 // The apex of n's hull face that is not on the shared edge.
-                let w = self.tets[n];
+                let w = self.slots[n].v;
                 let apex = *w
                     .iter()
                     .find(|&&x| x != INFINITE && !v.contains(&x))
@@ -196,7 +196,7 @@ impl Tetrahedralization {
                 let o = orient3d(p(face[0]), p(face[1]), p(face[2]), p(apex));
                 if o < 0 {
                     let fin = |u: usize| {
-                        (self.adj[u][self.tets[u].iter().position(|&x| x == INFINITE).unwrap()] >> 2) as usize
+                        (self.slots[u].n[self.slots[u].v.iter().position(|&x| x == INFINITE).unwrap()] >> 2) as usize
                     };
                     return Err(ValidationError::NonConvexHull { a: fin(t), b: fin(n) });
                 }
@@ -208,7 +208,7 @@ impl Tetrahedralization {
         // Counts: vertices, edges, faces.
         let mut used = vec![false; self.points.len()];
         let mut edges: Vec<u64> = Vec::with_capacity(nf * 6);
-        for v in &self.tets[..nf] {
+        for v in self.slots[..nf].iter().map(|s| &s.v) {
             for &x in v {
                 used[x as usize] = true;
             }
@@ -240,9 +240,9 @@ impl Tetrahedralization {
             });
         }
         // Hull: F_h hull faces, E_h = 3 F_h / 2 hull edges, V_h hull vertices.
-        let mut hull_v: Vec<u32> = self.tets[nf..]
+        let mut hull_v: Vec<u32> = self.slots[nf..]
             .iter()
-            .flat_map(|v| v.iter().copied().filter(|&x| x != INFINITE))
+            .flat_map(|s| s.v.into_iter().filter(|&x| x != INFINITE))
             .collect();
         hull_v.sort_unstable();
         hull_v.dedup();
