@@ -61,6 +61,19 @@ impl Tolerances {
     pub fn plane_abs(&self) -> f64 {
         self.plane * self.scale
     }
+    /// The tolerances for a split that *seals a crack*: a cell crossed by model polygons
+    /// whose cross-section is covered by them up to cracks (narrower than
+    /// [`sliver_width`](Self::sliver_width)) must be split even when that section is below
+    /// the area tolerance, or the cell would connect both sides of the wall. Such a split
+    /// only needs to be numerically meaningful, so the area threshold drops to the weld
+    /// distance squared (`area = weld`); the thickness rule (pieces thicker than `weld`)
+    /// is unchanged.
+    pub fn sealing(&self) -> Tolerances {
+        Tolerances {
+            area: self.weld,
+            ..*self
+        }
+    }
 }
 
 impl Default for Tolerances {

@@ -1,8 +1,10 @@
-//! Stages 1–3: cells from tetrahedra, conforming polygons, splitting.
+//! Stages 1–4: cells from tetrahedra, conforming polygons, splitting, sealing cracks.
 
 use super::{Cell, CellComplex, ComplexStats, HULL, Occluder, Patch, PatchId};
 use crate::delaunay::{FACE_SLOTS, Tetrahedralization};
-use crate::geom::{Classification, ConvexPolygon, ConvexPolyhedron, Cut, Plane, PolygonSplit, min_volume};
+use crate::geom::{
+    Classification, ConvexPolygon, ConvexPolyhedron, Cut, Plane, PolygonSplit, PolyhedronSplit, min_volume,
+};
 use crate::ids::{CellId, PolygonId, TetId, VertexId};
 use crate::model::Model;
 use crate::predicates::orient3d;
@@ -26,6 +28,16 @@ impl CellComplex {
         let all: Vec<PolygonId> = (0..model.polygons.len() as u32).map(PolygonId).collect();
         let (supports, of) = support_planes(model, &all, &cx.tol);
         cx.stats.support_planes = supports.len();
+        cx.polygon_planes = of
+            .iter()
+            .map(|&(s, flipped)| {
+                if flipped {
+                    supports[s].plane.flipped()
+                } else {
+                    supports[s].plane
+                }
+            })
+            .collect();
         let on_support: Vec<bool> = model
             .polygons
             .iter()
@@ -47,8 +59,14 @@ impl CellComplex {
             cx.place_polygon(model, tet, &mut placer, p, &supports[s], flipped);
         }
         cx.stats.polygons_clipped = pending.len();
-        cx.stats.cells_after_split = cx.cells.iter().filter(|c| c.alive).count();
         cx.stats.timings.push(("splitting".into(), t2.elapsed().as_secs_f64()));
+
+        let t25 = Instant::now();
+        cx.seal_cracks(model, &mut placer, &supports, &of);
+        cx.stats.cells_after_split = cx.cells.iter().filter(|c| c.alive).count();
+        cx.stats
+            .timings
+            .push(("sealing cracks".into(), t25.elapsed().as_secs_f64()));
 
         let t3 = Instant::now();
         cx.build_graph();
@@ -140,6 +158,8 @@ impl CellComplex {
             stats,
             tol: model.tolerances,
             hull_volume,
+            polygon_planes: Vec::new(),
+            hull_through: Vec::new(),
         }
     }
 
@@ -255,7 +275,10 @@ impl CellComplex {
         let polygon = ConvexPolygon::new(verts.clone());
         let ids = support.ids;
         let (lo, hi) = aabb(&verts);
-        let slack = self.tol.plane_abs() * 4.0 + self.tol.weld_abs();
+        // The projection moved the polygon by up to `coplanar` from where it is: cells
+        // within that distance must be visited, so that faces lying where the polygon is
+        // get it attached (`attach_on_faces` accepts faces that near the plane).
+        let slack = self.near_eps() + self.tol.plane_abs() * 4.0;
 
         pl.queue.clear();
         pl.epoch += 1;
@@ -297,6 +320,9 @@ impl CellComplex {
                             pl.mark(b, epoch);
                         }
                         None => {
+                            // Remember the crossing: a later split may leave a piece whose
+                            // section this polygon covers (see `seal_cracks`).
+                            pl.defer(self.cells[c.idx()].tet, pid);
                             // Within tolerance of the cell's boundary: the polygon lies on a
                             // face (or grazes the cell); attach it there.
                             let attached = self.attach_on_faces(c, &polygon, &plane, pid, true);
@@ -329,6 +355,126 @@ impl CellComplex {
                 }
             }
         }
+    }
+
+    /// Stage 4: seal cracks left by refused or insignificant crossings.
+    ///
+    /// A polygon whose part inside a straddled cell is below the area tolerance does not
+    /// split it. Later splits by other planes may cut that cell into pieces whose whole
+    /// cross-section by the polygon's plane is covered by the polygon: such a piece joins
+    /// the wall's two sides through a crack (e.g. a thin wedge of a sliver tetrahedron
+    /// hugging one wall and passing behind the wall it meets at a corner), which the portal
+    /// graph cannot see because it lies inside one cell. Every crossing that did not split
+    /// was remembered per tetrahedron; here each live descendant is split by the support
+    /// plane of those polygons when their union covers the section up to cracks (pieces
+    /// the portal graph would discard as slivers), with the
+    /// [`Tolerances::sealing`](crate::Tolerances::sealing) thresholds.
+    fn seal_cracks(&mut self, model: &Model, pl: &mut Placer, supports: &[Support], of: &[(usize, bool)]) {
+        let mut tets: Vec<TetId> = pl.deferred.keys().copied().collect();
+        tets.sort_unstable();
+        for t in tets {
+            let mut polys = pl.deferred.remove(&t).unwrap_or_default();
+            polys.sort_unstable();
+            polys.dedup();
+            // Group by support plane (sorted, so deterministic).
+            let mut groups: Vec<(usize, Vec<PolygonId>)> = Vec::new();
+            let mut by: Vec<(usize, PolygonId)> = polys.iter().map(|&p| (of[p.idx()].0, p)).collect();
+            by.sort_unstable();
+            for (s, p) in by {
+                match groups.last_mut() {
+                    Some((g, v)) if *g == s => v.push(p),
+                    _ => groups.push((s, vec![p])),
+                }
+            }
+            let mut work = pl.live_cells(t, &self.cells);
+            while let Some(c) = work.pop() {
+                let cell = &self.cells[c.idx()];
+                if !cell.alive || cell.flat {
+                    continue;
+                }
+                for (s, ps) in &groups {
+                    if let Some((f, b)) = self.seal_split(model, c, &supports[*s], ps, of) {
+                        pl.on_split(c, f, b, &self.cells);
+                        work.push(f);
+                        work.push(b);
+                        break;
+                    }
+                }
+            }
+        }
+    }
+
+    /// Splits `c` by the support plane when the group's polygons `ps` cover its section
+    /// (at least half of it, the rest only cracks). Returns (front, back).
+    fn seal_split(
+        &mut self,
+        model: &Model,
+        c: CellId,
+        support: &Support,
+        ps: &[PolygonId],
+        of: &[(usize, bool)],
+    ) -> Option<(CellId, CellId)> {
+        let plane = support.plane;
+        let cell = &self.cells[c.idx()].poly;
+        if cell.classify(&plane, &self.tol) != Classification::Straddles {
+            return None;
+        }
+        let slack = self.tol.plane_abs() * 4.0 + self.tol.weld_abs();
+        let holes: Vec<(PolygonId, ConvexPolygon)> = ps
+            .iter()
+            .map(|&p| {
+                let verts: Vec<[f64; 3]> = model.polygons[p.idx()]
+                    .verts
+                    .iter()
+                    .map(|v| support.project(&model.vertices[v.idx()]))
+                    .collect();
+                (p, ConvexPolygon::new(verts))
+            })
+            .filter(|(_, q)| {
+                let (lo, hi) = aabb(&q.verts);
+                self.touches(c, q, &plane, lo, hi, slack)
+            })
+            .collect();
+        if holes.is_empty() {
+            return None;
+        }
+        let relaxed = self.tol.sealing();
+        let new_patch = self.patches.len() as u32;
+        let Cut::Split(s) = self.cells[c.idx()].poly.cut(&plane, &relaxed, new_patch) else {
+            return None;
+        };
+        let section = &s.section;
+        let polys: Vec<ConvexPolygon> = holes.iter().map(|(_, q)| q.clone()).collect();
+        let open = section.subtract(&polys, &relaxed).pieces;
+        if open.iter().any(|q| !super::graph::is_sliver(q, &self.tol)) {
+            return None;
+        }
+        let sa = section.area();
+        let open_area: f64 = open.iter().map(|q| q.area()).sum();
+        if sa - open_area < 0.5 * sa {
+            return None;
+        }
+        // Occluders in the section's orientation (normal along the support plane, into the
+        // front piece): a polygon agreeing with the support faces the front piece.
+        let occluders: Vec<Occluder> = holes
+            .iter()
+            .filter_map(|(p, q)| {
+                section.intersect_coplanar(q, &relaxed).map(|o| Occluder {
+                    polygon: o,
+                    source: *p,
+                    faces: if of[p.idx()].1 { 0 } else { 1 },
+                })
+            })
+            .collect();
+        self.stats.cells_sealed += 1;
+        Some(self.commit_split(c, &plane, *s, occluders))
+    }
+
+    /// Distance within which a face counts as lying on a support plane: the projection
+    /// onto the support plane moves polygons by up to `coplanar`, and cuts refuse slabs
+    /// thinner than `weld`.
+    fn near_eps(&self) -> f64 {
+        self.tol.coplanar_abs() + self.tol.weld_abs()
     }
 
     /// Conservative test: can the polygon intersect the closed cell?
@@ -406,7 +552,7 @@ impl CellComplex {
         near: bool,
     ) -> bool {
         let un = plane.normalized();
-        let eps = self.tol.plane_abs() * if near { 1e3 } else { 1.0 } + if near { self.tol.weld_abs() } else { 0.0 };
+        let eps = if near { self.near_eps() } else { self.tol.plane_abs() };
         let mut attached = false;
         let cell = &self.cells[c.idx()];
         let mut adds: Vec<(usize, Occluder)> = Vec::new();
@@ -462,19 +608,34 @@ impl CellComplex {
         let new_patch = self.patches.len() as u32;
         let cut = self.cells[c.idx()].poly.cut(plane, &self.tol, new_patch);
         let Cut::Split(s) = cut else { return None };
-        let s = *s;
+        let clip = s.section.intersect_coplanar(&clip, &self.tol).unwrap_or(clip);
+        let occ = Occluder {
+            polygon: clip,
+            source: pid,
+            faces: 1,
+        };
+        Some(self.commit_split(c, plane, *s, vec![occ]))
+    }
+
+    /// Replaces cell `c` by the two pieces of `s` (its cut by `plane`, made with the tag
+    /// of the next patch): the cross-section becomes a new patch carrying `occluders`
+    /// (in the section's orientation: `faces == 1` faces the front piece), the old patches
+    /// move to the piece they lie in or are split in two, and the neighbours across split
+    /// patches subdivide their faces. Returns (front, back).
+    fn commit_split(
+        &mut self,
+        c: CellId,
+        plane: &Plane,
+        s: PolyhedronSplit,
+        occluders: Vec<Occluder>,
+    ) -> (CellId, CellId) {
         let (fid, bid) = (CellId(self.cells.len() as u32), CellId(self.cells.len() as u32 + 1));
         let tet = self.cells[c.idx()].tet;
         // The cross-section patch: outward of the back piece, into the front piece.
-        let clip = s.section.intersect_coplanar(&clip, &self.tol).unwrap_or(clip);
         self.patches.push(Patch {
             polygon: s.section.clone(),
             cells: [bid, fid],
-            occluders: vec![Occluder {
-                polygon: clip,
-                source: pid,
-                faces: 1,
-            }],
+            occluders,
             alive: true,
         });
         let mut front = s.front;
@@ -559,11 +720,23 @@ impl CellComplex {
             flat: false,
         });
         self.stats.cells_split += 1;
-        Some((fid, bid))
+        (fid, bid)
     }
 }
 
 type P3Key = [u64; 3];
+
+/// Orthogonal projection of `p` onto `plane`.
+pub(super) fn project(plane: &Plane, p: &[f64; 3]) -> [f64; 3] {
+    let n = plane.n;
+    let nn = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+    let t = plane.eval(p) / nn;
+    if t == 0.0 {
+        *p
+    } else {
+        [p[0] - t * n[0], p[1] - t * n[1], p[2] - t * n[2]]
+    }
+}
 
 /// A plane shared by nearly coplanar polygons: through three input vertices of the
 /// largest polygon of its group, oriented like that polygon.
@@ -575,14 +748,7 @@ pub(super) struct Support {
 impl Support {
     /// Orthogonal projection onto the plane.
     fn project(&self, p: &[f64; 3]) -> [f64; 3] {
-        let n = self.plane.n;
-        let nn = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
-        let t = self.plane.eval(p) / nn;
-        if t == 0.0 {
-            *p
-        } else {
-            [p[0] - t * n[0], p[1] - t * n[1], p[2] - t * n[2]]
-        }
+        project(&self.plane, p)
     }
 }
 
@@ -725,6 +891,8 @@ struct Placer {
     descendants: HashMap<TetId, Vec<CellId>>,
     /// One tetrahedron incident to each vertex.
     vertex_tet: Vec<u32>,
+    /// Polygons that straddled a descendant of the tetrahedron without splitting it.
+    deferred: HashMap<TetId, Vec<PolygonId>>,
 }
 
 impl Placer {
@@ -741,6 +909,22 @@ impl Placer {
             epoch: 0,
             descendants: HashMap::new(),
             vertex_tet,
+            deferred: HashMap::new(),
+        }
+    }
+
+    fn defer(&mut self, t: TetId, p: PolygonId) {
+        let list = self.deferred.entry(t).or_default();
+        if list.last() != Some(&p) {
+            list.push(p);
+        }
+    }
+
+    /// Live cells descending from tetrahedron `t`.
+    fn live_cells(&self, t: TetId, cells: &[Cell]) -> Vec<CellId> {
+        match self.descendants.get(&t) {
+            Some(list) => list.iter().copied().filter(|c| cells[c.idx()].alive).collect(),
+            None => vec![CellId(t.0)],
         }
     }
 

@@ -1,4 +1,5 @@
-//! Stages 4–5: portal graph (patch minus occluders) and exterior flood fill.
+//! Stages 5–6: portal graph (patch minus occluders, joins across flat cells) and exterior
+//! flood fill.
 
 use super::{CellComplex, HULL, Leak, PatchId, Portal};
 use crate::geom::ConvexPolygon;
@@ -15,6 +16,34 @@ fn perimeter(p: &ConvexPolygon) -> f64 {
         .sum()
 }
 
+/// A crack: a polygon below the area tolerance or narrower (twice the area over the
+/// perimeter) than [`crate::Tolerances::sliver_width`]. Portal pieces like this are
+/// discarded; cross-sections whose uncovered part is only cracks are sealed by splitting.
+pub(super) fn is_sliver(q: &ConvexPolygon, tol: &crate::Tolerances) -> bool {
+    let a = q.area();
+    a < tol.area_abs() || 2.0 * a < tol.sliver_width() * perimeter(q)
+}
+
+/// A portal piece joining two cells across flat cells, oriented from the first to the second.
+type Link = (CellId, CellId, ConvexPolygon);
+
+/// Area-weighted centroid of convex pieces (the first piece's centroid if all are empty).
+fn area_centroid(pieces: &[ConvexPolygon]) -> [f64; 3] {
+    let (mut c, mut w) = ([0.0; 3], 0.0);
+    for p in pieces {
+        let (a, q) = (p.area(), p.centroid());
+        for k in 0..3 {
+            c[k] += a * q[k];
+        }
+        w += a;
+    }
+    if w > 0.0 {
+        c.map(|x| x / w)
+    } else {
+        pieces.first().map_or([f64::NAN; 3], |p| p.centroid())
+    }
+}
+
 impl CellComplex {
     /// Uncovered pieces of a patch: its polygon minus all occluders on it (either side).
     /// Returns (pieces, slivers, sliver area).
@@ -29,11 +58,10 @@ impl CellComplex {
             let s = patch.polygon.subtract(&holes, &self.tol);
             (s.pieces, s.slivers, s.sliver_area)
         };
-        let (amin, wmin) = (self.tol.area_abs(), self.tol.sliver_width());
         let mut keep = Vec::with_capacity(pieces.len());
         for q in pieces {
             let a = q.area();
-            if a < amin || 2.0 * a < wmin * perimeter(&q) {
+            if is_sliver(&q, &self.tol) {
                 slivers += 1;
                 sliver_area += a;
             } else {
@@ -43,25 +71,12 @@ impl CellComplex {
         (keep, slivers, sliver_area)
     }
 
-    /// Stage 4: portals between alive cells, grouped per cell pair.
+    /// Stage 5: portals between alive cells, grouped per cell pair.
     pub(super) fn build_graph(&mut self) {
         let mut by_pair: HashMap<(CellId, CellId), usize> = HashMap::new();
         let mut portals: Vec<Portal> = Vec::new();
         let (mut slivers, mut sliver_area) = (0usize, 0.0f64);
-        for (pi, patch) in self.patches.iter().enumerate() {
-            if !patch.alive || patch.cells[1] == HULL {
-                continue;
-            }
-            let (a, b) = (patch.cells[0], patch.cells[1]);
-            if !self.cells[a.idx()].alive || !self.cells[b.idx()].alive {
-                continue;
-            }
-            let (pieces, s, sa) = self.open_pieces(PatchId(pi as u32));
-            slivers += s;
-            sliver_area += sa;
-            if pieces.is_empty() {
-                continue;
-            }
+        let mut add = |a: CellId, b: CellId, pieces: Vec<ConvexPolygon>| {
             // Orient from the smaller cell id to the larger.
             let (key, pieces) = if a < b {
                 ((a, b), pieces)
@@ -80,10 +95,132 @@ impl CellComplex {
                 portals[k].area += p.area();
                 portals[k].pieces.push(p);
             }
+        };
+        for (pi, patch) in self.patches.iter().enumerate() {
+            if !patch.alive || patch.cells[1] == HULL {
+                continue;
+            }
+            let (a, b) = (patch.cells[0], patch.cells[1]);
+            if !self.cells[a.idx()].alive || !self.cells[b.idx()].alive {
+                continue;
+            }
+            let (pieces, s, sa) = self.open_pieces(PatchId(pi as u32));
+            slivers += s;
+            sliver_area += sa;
+            // A flat cell is a membrane, not a room: see `through_flat`.
+            if pieces.is_empty() || self.cells[a.idx()].flat || self.cells[b.idx()].flat {
+                continue;
+            }
+            add(a, b, pieces);
         }
+        let (links, hull) = self.through_flat();
+        for (a, b, p) in links {
+            add(a, b, vec![p]);
+        }
+        self.hull_through = hull;
         self.portals = portals;
         self.stats.slivers_discarded = slivers;
         self.stats.sliver_area = sliver_area;
+    }
+
+    /// Portals across flat cells. A flat tetrahedron (four nearly coplanar input points)
+    /// holds no space: the thesis (4.2.1) discards it, which glues its two sides together.
+    /// As a node of the portal graph it would also join cells on the *same* side of it,
+    /// through its zero-thickness body, e.g. the cells above and below a floor that meets
+    /// the flat tetrahedron's plane. So it gets no portals of its own; instead each cell
+    /// below it is joined to each cell above it over the overlap of their open faces
+    /// (patch minus occluders on both sides), through stacks of flat cells if need be.
+    /// Returns the joins (oriented from the first cell to the second) and the cells that
+    /// reach the hull this way, with a point there.
+    fn through_flat(&self) -> (Vec<Link>, Vec<(CellId, [f64; 3])>) {
+        let (mut links, mut hull) = (Vec::new(), Vec::new());
+        for (f, cell) in self.alive_cells().filter(|(_, c)| c.flat) {
+            let Some(n) = cell
+                .poly
+                .faces
+                .iter()
+                .max_by(|a, b| a.area().total_cmp(&b.area()))
+                .map(|g| g.normal())
+            else {
+                continue;
+            };
+            for (t, _) in self.flat_faces(f, n, false) {
+                let x = self.across(PatchId(t), f);
+                if x != HULL && self.cells[x.idx()].flat {
+                    continue;
+                }
+                let (open, _, _) = self.open_pieces(PatchId(t));
+                self.rise(f, n, &open, x, 0, &mut links, &mut hull);
+            }
+        }
+        (links, hull)
+    }
+
+    /// Faces of flat cell `f` whose outward normal points along `n` (`up`) or against it,
+    /// by more than 60°, with area above the tolerance: (patch tag, face index).
+    fn flat_faces(&self, f: CellId, n: [f64; 3], up: bool) -> Vec<(u32, usize)> {
+        let poly = &self.cells[f.idx()].poly;
+        poly.faces
+            .iter()
+            .enumerate()
+            .filter(|(_, g)| {
+                let m = g.normal();
+                let d = m[0] * n[0] + m[1] * n[1] + m[2] * n[2];
+                (if up { d > 0.5 } else { d < -0.5 }) && g.area() >= self.tol.area_abs()
+            })
+            .map(|(i, _)| (poly.tags[i], i))
+            .collect()
+    }
+
+    /// Carries `region` (open pieces on the lower side of flat cell `f`, reached from cell
+    /// `from` below) up through `f` to the cells above it.
+    #[allow(clippy::too_many_arguments)]
+    fn rise(
+        &self,
+        f: CellId,
+        n: [f64; 3],
+        region: &[ConvexPolygon],
+        from: CellId,
+        depth: usize,
+        links: &mut Vec<Link>,
+        hull: &mut Vec<(CellId, [f64; 3])>,
+    ) {
+        for (t, _) in self.flat_faces(f, n, true) {
+            let z = self.across(PatchId(t), f);
+            let (open, _, _) = self.open_pieces(PatchId(t));
+            let mut pieces = Vec::new();
+            for a in region {
+                for b in &open {
+                    if let Some(o) = a.intersect_coplanar(b, &self.tol)
+                        && !is_sliver(&o, &self.tol)
+                    {
+                        let m = o.normal();
+                        // Oriented from below (`from`) to above (`z`).
+                        pieces.push(if m[0] * n[0] + m[1] * n[1] + m[2] * n[2] < 0.0 {
+                            o.reversed()
+                        } else {
+                            o
+                        });
+                    }
+                }
+            }
+            if pieces.is_empty() || z == from {
+                continue;
+            }
+            if z != HULL && self.cells[z.idx()].flat {
+                if depth < 8 {
+                    self.rise(z, n, &pieces, from, depth + 1, links, hull);
+                }
+            } else if z == HULL {
+                if from != HULL {
+                    hull.push((from, pieces[0].centroid()));
+                }
+            } else if from == HULL {
+                hull.push((z, pieces[0].centroid()));
+            } else {
+                links.extend(pieces.into_iter().map(|p| (from, z, p)));
+            }
+        }
     }
 
     /// Portal adjacency: for each cell, (neighbour, portal index).
@@ -96,7 +233,33 @@ impl CellComplex {
         adj
     }
 
-    /// Stage 5: remove regions that face no occluder; report leaks.
+    /// The leak's path as points, in the manner of a qbsp pointfile: the centroid of each
+    /// cell of [`Leak::path`], with the centroid of the portal to the next cell between
+    /// them, and finally [`Leak::hull_point`] where the path leaves the model. Consecutive
+    /// points are joined by segments that stay inside the path's (convex) cells and portals,
+    /// so the polyline can be drawn in a viewer to find the hole.
+    pub fn leak_pointfile(&self, leak: &Leak) -> Vec<[f64; 3]> {
+        let pairs: HashMap<(CellId, CellId), usize> = self
+            .portals
+            .iter()
+            .enumerate()
+            .map(|(k, p)| ((p.cells[0], p.cells[1]), k))
+            .collect();
+        let mut pts = Vec::with_capacity(2 * leak.path.len() + 1);
+        for (i, &c) in leak.path.iter().enumerate() {
+            pts.push(self.cells[c.idx()].poly.centroid());
+            if let Some(&d) = leak.path.get(i + 1) {
+                let key = if c < d { (c, d) } else { (d, c) };
+                if let Some(&k) = pairs.get(&key) {
+                    pts.push(area_centroid(&self.portals[k].pieces));
+                }
+            }
+        }
+        pts.push(leak.hull_point);
+        pts
+    }
+
+    /// Stage 6: remove regions that face no occluder; report leaks.
     pub(super) fn remove_exterior(&mut self) {
         let adj = self.adjacency();
         let n = self.cells.len();
@@ -124,8 +287,12 @@ impl CellComplex {
         }
         // Open hull patches per cell (hull faces not fully covered by occluders).
         let mut hull_open: HashMap<CellId, [f64; 3]> = HashMap::new();
+        for &(c, q) in &self.hull_through {
+            hull_open.entry(c).or_insert(q);
+        }
         for (pi, p) in self.patches.iter().enumerate() {
-            if p.alive && p.cells[1] == HULL && self.cells[p.cells[0].idx()].alive {
+            if p.alive && p.cells[1] == HULL && self.cells[p.cells[0].idx()].alive && !self.cells[p.cells[0].idx()].flat
+            {
                 let (pieces, _, _) = self.open_pieces(PatchId(pi as u32));
                 if let Some(q) = pieces.first() {
                     hull_open.entry(p.cells[0]).or_insert_with(|| q.centroid());

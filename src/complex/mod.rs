@@ -20,19 +20,33 @@
 //!    face lies on the polygon and that sees the polygon's front gets the overlap as an
 //!    occluder. Tetrahedra (input vertices only) are classified against the polygon's plane
 //!    with exact [`orient3d`](crate::predicates::orient3d); split cells with tolerances.
-//! 4. **Portal graph.** Each patch between two cells, minus all its occluders (either
-//!    side), gives convex portal pieces; pieces below the area tolerance are slivers,
-//!    counted and dropped. Pieces are grouped per cell pair into [`Portal`]s.
-//! 5. **Exterior removal.** Connected regions of the portal graph where no cell faces an
-//!    occluder are removed (the outside; the inside of walls). A region that faces
-//!    occluders *and* reaches the hull through an uncovered hull patch is a leak: reported,
-//!    with the path, and kept.
+//!    The polygon is placed on its group's support plane, so the search reaches every cell
+//!    within `coplanar` of it.
+//! 4. **Sealing cracks.** A crossing that did not split (the polygon's part in the cell
+//!    below the area tolerance) is remembered; after all polygons, every piece the cell
+//!    was later cut into whose cross-section is covered by the polygons (up to cracks) is
+//!    split with the [`Tolerances::sealing`] thresholds, however small the section: else
+//!    the piece joins the wall's two sides (a sliver wedge passing behind a wall corner).
+//! 5. **Portal graph.** Each patch between two cells, minus all its occluders (either
+//!    side), gives convex portal pieces; pieces below the area tolerance or narrower than
+//!    [`Tolerances::sliver_width`] are slivers (cracks), counted and dropped. Pieces are
+//!    grouped per cell pair into [`Portal`]s. Flat cells (four nearly coplanar input
+//!    points) are membranes, not nodes: the cells below and above one are joined over
+//!    the overlap of their open faces.
+//! 6. **Exterior removal.** Connected regions of the portal graph where no cell faces an
+//!    occluder are removed (the outside; the inside of walls). Facing is in the crack
+//!    sense ([`CellComplex::faces_occluder`]): sliver occluders and cells thinner than the
+//!    sliver width do not count. A region that faces occluders *and* reaches the hull
+//!    through an uncovered hull patch is a leak: reported, with the path
+//!    ([`CellComplex::leak_pointfile`]), and kept.
 //!
 //! Invariants (checked by [`CellComplex::validate`]): alive cells are convex with positive
 //! volume and their face tags name live patches that list them; each patch's two cells
 //! hold it; portals are symmetric; before removal, cell volumes sum to the hull volume;
 //! every cell's boundary area equals its patches' area, and each patch's area is covered
-//! by its occluders plus its portal pieces (plus discarded slivers).
+//! by its occluders plus its portal pieces (plus discarded slivers); no model polygon
+//! crosses a cell's interior, neither with a significant fragment nor by covering the
+//! cell's whole cross-section (a crack crossing).
 
 mod build;
 mod graph;
@@ -40,7 +54,7 @@ mod validate;
 
 pub use validate::{ComplexError, ComplexValidation};
 
-use crate::geom::{ConvexPolygon, ConvexPolyhedron};
+use crate::geom::{ConvexPolygon, ConvexPolyhedron, Plane};
 use crate::ids::{CellId, PolygonId, TetId};
 use crate::tolerances::Tolerances;
 use serde::Serialize;
@@ -95,8 +109,10 @@ pub struct Cell {
     /// True once removed by the exterior flood fill.
     pub exterior: bool,
     /// An unsplit tetrahedron thinner than the weld distance (or with volume below
-    /// [`crate::geom::min_volume`]): four nearly coplanar input points. It keeps the complex conforming but holds no space, so it
-    /// never counts as facing an occluder (thesis 4.2.1 discards such tetrahedra).
+    /// [`crate::geom::min_volume`]): four nearly coplanar input points. It keeps the
+    /// complex conforming but holds no space (thesis 4.2.1 discards such tetrahedra): it
+    /// never counts as facing an occluder and has no portals of its own; the cells on its
+    /// two sides are joined through it instead, and the flood fill removes it.
     pub flat: bool,
 }
 
@@ -152,6 +168,9 @@ pub struct ComplexStats {
     /// Splits refused because a piece would have been a sliver (the polygon was attached
     /// to the nearby face instead, or left unplaced).
     pub splits_refused: usize,
+    /// Splits that sealed a crack: a cell whose section by a support plane is covered by
+    /// that plane's polygons up to cracks, split after placement (see `seal_cracks`).
+    pub cells_sealed: usize,
     /// Polygon fragments that could be neither split on nor attached (area in model units²).
     pub unplaced_fragments: usize,
     /// Cells after splitting.
@@ -195,6 +214,12 @@ pub struct CellComplex {
     pub tol: Tolerances,
     /// Volume of the convex hull (sum of tetrahedron volumes).
     pub hull_volume: f64,
+    /// The support plane each model polygon was placed on, oriented like the polygon
+    /// (nearly coplanar polygons share one; see `Tolerances::coplanar`).
+    pub polygon_planes: Vec<Plane>,
+    /// Cells that reach an open hull face through flat cells, with a point there (found by
+    /// the portal graph stage, used by the exterior flood fill).
+    hull_through: Vec<(CellId, [f64; 3])>,
 }
 
 impl CellComplex {
@@ -219,14 +244,31 @@ impl CellComplex {
         let cs = self.patches[p.idx()].cells;
         if cs[0] == c { cs[1] } else { cs[0] }
     }
-    /// Whether any occluder on the cell's patches faces the cell.
+    /// Whether any occluder on the cell's patches faces the cell, in the crack sense:
+    /// occluders that are cracks themselves (below the area tolerance or narrower than
+    /// [`Tolerances::sliver_width`], e.g. the strip a polygon's edge leaves on a patch it
+    /// only grazes) do not count, just as portal pieces like that do not connect; and a
+    /// cell that is itself a crack ([`CellComplex::is_thin`]) faces nothing, like a flat
+    /// tetrahedron.
     pub fn faces_occluder(&self, c: CellId) -> bool {
         let cell = &self.cells[c.idx()];
-        !cell.flat
-            && cell.poly.tags.iter().any(|&t| {
-                let p = &self.patches[t as usize];
-                let side = if p.cells[0] == c { 0 } else { 1 };
-                p.occluders.iter().any(|o| o.faces == side)
-            })
+        let facing = cell.poly.tags.iter().any(|&t| {
+            let p = &self.patches[t as usize];
+            let side = if p.cells[0] == c { 0 } else { 1 };
+            p.occluders
+                .iter()
+                .any(|o| o.faces == side && !graph::is_sliver(&o.polygon, &self.tol))
+        });
+        facing && !cell.flat && !self.is_thin(c)
+    }
+
+    /// A cell thinner than [`Tolerances::sliver_width`]: twice its volume over its surface
+    /// area (a lower bound of its width, exact for a slab) is below it. Such cells arise
+    /// as wedges between nearly coincident planes where one wall is placed twice (on its
+    /// support plane and, by near attachment, on a tetrahedron face a hair away); the
+    /// wedge lies inside the wall, so it must not make its region count as interior.
+    pub fn is_thin(&self, c: CellId) -> bool {
+        let poly = &self.cells[c.idx()].poly;
+        2.0 * poly.volume() < self.tol.sliver_width() * poly.surface_area()
     }
 }

@@ -1,7 +1,7 @@
 //! Invariant checker for [`CellComplex`]. Tests call it after building.
 
 use super::{CellComplex, HULL, PatchId};
-use crate::geom::{Classification, ConvexPolygon, Plane};
+use crate::geom::{Classification, ConvexPolygon, ConvexPolyhedron, Cut, Plane};
 use crate::ids::CellId;
 use crate::model::Model;
 
@@ -58,7 +58,8 @@ pub enum ComplexError {
         /// Hull volume.
         hull: f64,
     },
-    /// A model polygon crosses the interior of a cell (so a portal may cross it).
+    /// A model polygon crosses the interior of a cell (so a portal may cross it, or the
+    /// cell itself joins the polygon's two sides through a crack).
     #[error("model polygon {polygon} crosses the interior of cell {cell} (crossing area {area:.3e})")]
     Crossing {
         /// The polygon.
@@ -207,8 +208,10 @@ impl CellComplex {
         Ok(v)
     }
 
-    /// No model polygon crosses the interior of an alive cell by more than the area
-    /// tolerance. Uses a uniform grid over polygon bounding boxes.
+    /// No model polygon (where it was placed: projected onto its support plane) crosses the
+    /// interior of an alive cell, neither with a fragment above the area tolerance nor by
+    /// covering the cell's whole cross-section up to cracks (`crack_crossing`), whatever
+    /// its size. Uses a uniform grid over polygon bounding boxes.
     fn check_no_crossing(&self, model: &Model) -> Result<(), ComplexError> {
         let tol = &self.tol;
         let (lo, hi) = model.bbox();
@@ -217,10 +220,29 @@ impl CellComplex {
         let size: Vec<f64> = (0..3).map(|a| ((hi[a] - lo[a]) / k as f64).max(1e-300)).collect();
         let cell_of = |p: &[f64; 3], a: usize| (((p[a] - lo[a]) / size[a]).floor().max(0.0) as usize).min(k - 1);
         let mut grid: Vec<Vec<u32>> = vec![Vec::new(); k * k * k];
+        // Each polygon where it was placed: projected onto its support plane.
+        let planes: Vec<Plane> = (0..model.polygons.len())
+            .map(|i| match self.polygon_planes.get(i) {
+                Some(pl) => pl.normalized(),
+                None => {
+                    let v = &model.polygons[i].verts;
+                    let p = |k: usize| model.vertices[v[k].idx()];
+                    Plane::from_points(&p(0), &p(1), &p(2)).normalized()
+                }
+            })
+            .collect();
         let polys: Vec<ConvexPolygon> = model
             .polygons
             .iter()
-            .map(|p| ConvexPolygon::new(p.verts.iter().map(|v| model.vertices[v.idx()]).collect()))
+            .zip(&planes)
+            .map(|(p, pl)| {
+                ConvexPolygon::new(
+                    p.verts
+                        .iter()
+                        .map(|v| super::build::project(pl, &model.vertices[v.idx()]))
+                        .collect(),
+                )
+            })
             .collect();
         for (i, p) in polys.iter().enumerate() {
             let (a, b) = bbox(&p.verts);
@@ -248,7 +270,7 @@ impl CellComplex {
                             }
                             stamp[pi as usize] = ci as u32;
                             let poly = &polys[pi as usize];
-                            let plane = Plane::from_points(&poly.verts[0], &poly.verts[1], &poly.verts[2]).normalized();
+                            let plane = planes[pi as usize];
                             // Only a cut deeper than the snapping tolerances on both sides is a
                             // crossing: polygons are placed on shared support planes (within
                             // `coplanar`) and slabs thinner than `weld` are never split.
@@ -294,6 +316,13 @@ impl CellComplex {
                                     });
                                 }
                             }
+                            if let Some(area) = crack_crossing(&c.poly, &plane, poly, tol) {
+                                return Err(ComplexError::Crossing {
+                                    polygon: pi,
+                                    cell: ci as u32,
+                                    area,
+                                });
+                            }
                         }
                     }
                 }
@@ -301,6 +330,40 @@ impl CellComplex {
         }
         Ok(())
     }
+}
+
+/// A crossing through a crack: the cell reaches across the polygon's plane (checked by
+/// the caller) and the polygon covers at least half of the cell's cross-section, the rest
+/// being only cracks, so the cell joins the polygon's two sides however small the section
+/// is (a thin wedge passing behind a wall). `build` seals these by splitting; returns the
+/// covered area. Sections are taken with the [`Tolerances::sealing`](crate::Tolerances::sealing)
+/// thresholds, like the sealing splits.
+fn crack_crossing(
+    cell: &ConvexPolyhedron,
+    plane: &Plane,
+    poly: &ConvexPolygon,
+    tol: &crate::Tolerances,
+) -> Option<f64> {
+    // Separated by a face plane: no contact at all.
+    let slack = tol.plane_abs() * 4.0 + tol.weld_abs();
+    if cell
+        .planes()
+        .iter()
+        .any(|f| poly.verts.iter().all(|v| f.signed_distance(v) > slack))
+    {
+        return None;
+    }
+    let relaxed = tol.sealing();
+    let Cut::Split(s) = cell.cut(plane, &relaxed, 0) else {
+        return None;
+    };
+    let sa = s.section.area();
+    let open = s.section.subtract(std::slice::from_ref(poly), &relaxed).pieces;
+    if open.iter().any(|q| !super::graph::is_sliver(q, tol)) {
+        return None;
+    }
+    let covered = sa - open.iter().map(|q| q.area()).sum::<f64>();
+    (covered >= 0.5 * sa && covered > 0.0).then_some(covered)
 }
 
 fn bbox(v: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
