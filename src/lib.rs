@@ -10,10 +10,12 @@
 
 pub mod bench;
 pub mod complex;
+pub mod decimate;
 pub mod delaunay;
 pub mod geom;
 pub mod ids;
 pub mod model;
+pub mod output;
 pub mod predicates;
 pub mod scenes;
 pub mod tolerances;

@@ -55,6 +55,36 @@ enum Cmd {
         #[command(subcommand)]
         what: BenchCmd,
     },
+    /// Find cells and portals: build the cell complex, collapse neighbouring cells (lowest
+    /// portal weight first) until the stop rule holds, and write result.json,
+    /// weight_curve.csv, weight_curve.png and cells.svg into --out.
+    Run {
+        /// Model file (.obj or .mesh).
+        model: PathBuf,
+        /// Portal weight: aspect (thesis 4.1.4), refined (4.3.2) or volume (4.3.3).
+        #[arg(long, default_value = "aspect")]
+        heuristic: portalfind::decimate::HeuristicKind,
+        /// Projected cell area: bbox (bounding rectangle), hull (2D convex hull) or union
+        /// (exact union of the convex pieces).
+        #[arg(long, default_value = "hull")]
+        estimator: portalfind::decimate::Estimator,
+        /// threshold:W (stop when the lowest weight is >= W; the thesis suggests 3 to 4 for
+        /// aspect; refined and volume weights depend on the model's scale), cells:N, or
+        /// none (one cell per connected region; records the whole weight curve).
+        #[arg(long, default_value = "threshold:3")]
+        stop: portalfind::decimate::StopRule,
+        /// Output directory (created if missing).
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// For each x,y,z row of POINTS (CSV), print the id of the final cell of a run (read
+    /// from DIR/result.json) that contains the point, or -1.
+    Locate {
+        /// Output directory of `portalfind run`.
+        dir: PathBuf,
+        /// CSV file of x,y,z rows (an optional header row is skipped).
+        points: PathBuf,
+    },
 }
 
 #[derive(Subcommand)]
@@ -115,6 +145,14 @@ fn main() -> Result<()> {
             }
             BenchCmd::Delaunay { sizes, kinds, json } => bench_delaunay(&sizes, &kinds, json),
         },
+        Cmd::Run {
+            model,
+            heuristic,
+            estimator,
+            stop,
+            out,
+        } => run_decimation(&model, heuristic, estimator, stop, &out),
+        Cmd::Locate { dir, points } => locate(&dir, &points),
     }
 }
 
@@ -306,5 +344,100 @@ fn bench_delaunay(sizes: &[usize], kinds: &[String], json: Option<PathBuf>) -> R
         std::fs::write(&p, serde_json::to_string_pretty(&rows)?)
             .with_context(|| format!("cannot write {}", p.display()))?;
     }
+    Ok(())
+}
+
+fn run_decimation(
+    path: &std::path::Path,
+    heuristic: portalfind::decimate::HeuristicKind,
+    estimator: portalfind::decimate::Estimator,
+    stop: portalfind::decimate::StopRule,
+    out: &std::path::Path,
+) -> Result<()> {
+    use portalfind::decimate::{Decimation, QueueMode, Settings};
+    let t0 = Instant::now();
+    let m = load(path)?;
+    let mut stages: Vec<(String, f64)> = vec![("load model".into(), t0.elapsed().as_secs_f64())];
+    let t1 = Instant::now();
+    let t =
+        Tetrahedralization::build(&m.vertices).with_context(|| format!("cannot tetrahedralize {}", path.display()))?;
+    stages.push(("delaunay tetrahedralization".into(), t1.elapsed().as_secs_f64()));
+    let cx = portalfind::complex::CellComplex::build(&m, &t);
+    stages.extend(cx.stats.timings.iter().cloned());
+    let settings = Settings {
+        heuristic,
+        estimator,
+        stop,
+        queue: QueueMode::Auto,
+    };
+    let bar = indicatif::ProgressBar::with_draw_target(None, indicatif::ProgressDrawTarget::hidden());
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("decimating {bar:40} {pos}/{len} collapses, {msg} [{elapsed}]")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let (t2, mut shown) = (Instant::now(), false);
+    let dec = Decimation::run_with_progress(&cx, &settings, &mut |steps, cells| {
+        if steps % 256 != 0 {
+            return;
+        }
+        if !shown && t2.elapsed().as_secs_f64() > 1.0 {
+            shown = true;
+            bar.set_length((steps + cells) as u64);
+            bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+        }
+        if shown {
+            bar.set_position(steps as u64);
+            bar.set_message(format!("{cells} cells"));
+        }
+    });
+    bar.finish_and_clear();
+    stages.push(("decimation: initial weights".into(), dec.stats.init_seconds));
+    stages.push(("decimation: collapses".into(), dec.stats.collapse_seconds));
+    let doc = portalfind::output::result_doc(&m, path, &cx, &dec, &stages)?;
+    let t3 = Instant::now();
+    let files = portalfind::output::write_outputs(out, &m, &doc, &dec)?;
+    stages.push(("write outputs".into(), t3.elapsed().as_secs_f64()));
+    println!("{:<44}{:>10}", "stage", "seconds");
+    for (name, secs) in &stages {
+        println!("{name:<44}{secs:>10.3}");
+    }
+    println!("{:<44}{:>10.3}", "total", t0.elapsed().as_secs_f64());
+    println!();
+    let s = &dec.stats;
+    let rows: [(&str, String); 9] = [
+        ("heuristic / estimator", format!("{heuristic} / {estimator}")),
+        ("active cells", s.initial_cells.to_string()),
+        ("cell pairs", s.initial_pairs.to_string()),
+        ("connected regions", s.regions.to_string()),
+        ("collapses", s.steps.to_string()),
+        ("final cells", doc.cells.len().to_string()),
+        ("final portal pairs", doc.portals.len().to_string()),
+        (
+            "weights computed / re-weighs skipped",
+            format!("{} / {}", s.weights_computed, s.reweighs_skipped),
+        ),
+        ("stop", format!("{stop}: {:?}", dec.stop)),
+    ];
+    for (k, v) in rows {
+        println!("{k:<44}{v:>10}");
+    }
+    for f in files {
+        println!("wrote {}", f.display());
+    }
+    Ok(())
+}
+
+fn locate(dir: &std::path::Path, points: &std::path::Path) -> Result<()> {
+    let doc = portalfind::output::read_result(dir)?;
+    let pts = portalfind::output::read_points(points)?;
+    let loc = portalfind::output::Locator::new(&doc);
+    let mut out = String::new();
+    for p in &pts {
+        match loc.locate(p) {
+            Some(id) => out.push_str(&format!("{id}\n")),
+            None => out.push_str("-1\n"),
+        }
+    }
+    print!("{out}");
     Ok(())
 }

@@ -1,0 +1,331 @@
+//! Incremental 3D convex hull with exact orientation tests, used to keep a merged cell's
+//! vertex set small (its convex hull vertices) and to merge two such sets cheaply.
+//!
+//! Faces are triangles, counter-clockwise seen from outside, so a point `p` sees face
+//! `abc` iff [`orient3d`]`(a, b, c, p) > 0` — decided exactly. A point that sees no face is
+//! inside or on the hull and is not inserted, so inserting points that add nothing leaves
+//! the hull *bit for bit* unchanged; [`Hull3::insert_all`] reports whether anything changed.
+//! Coplanar neighbouring triangles are allowed; a vertex set may then hold a few points
+//! that are not strictly extreme (e.g. on a facet), which changes no projection.
+//!
+//! Cost: inserting one point scans all faces (O(h) for h hull vertices) and rebuilds the
+//! visible cap; merging a hull of `k` vertices into one of `h` is O(k·h). Cells here have
+//! hulls of tens to a few hundred vertices.
+
+use crate::predicates::{P3, orient3d};
+use std::collections::HashMap;
+
+/// A convex hull: points and outward triangles over them.
+#[derive(Clone, Debug, Default)]
+pub struct Hull3 {
+    /// Hull vertices (after [`Hull3::compact`]: exactly those used by `faces`).
+    pub pts: Vec<P3>,
+    /// Triangles, counter-clockwise from outside. Empty when the points are coplanar
+    /// (a degenerate hull); then `pts` holds all distinct input points.
+    faces: Vec<[u32; 3]>,
+}
+
+fn sub(a: &P3, b: &P3) -> P3 {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+fn cross(a: &P3, b: &P3) -> P3 {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+fn dot(a: &P3, b: &P3) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn bits(p: &P3) -> [u64; 3] {
+    [p[0].to_bits(), p[1].to_bits(), p[2].to_bits()]
+}
+
+impl Hull3 {
+    /// Convex hull of a point set.
+    pub fn new(points: &[P3]) -> Self {
+        let mut pts: Vec<P3> = Vec::with_capacity(points.len());
+        let mut seen = std::collections::HashSet::with_capacity(points.len());
+        for p in points {
+            if seen.insert(bits(p)) {
+                pts.push(*p);
+            }
+        }
+        let Some(simplex) = initial_simplex(&pts) else {
+            return Hull3 { pts, faces: Vec::new() };
+        };
+        let [a, b, c, d] = simplex;
+        let mut h = Hull3 {
+            pts: vec![pts[a], pts[b], pts[c], pts[d]],
+            // (a, b, c, d) positively oriented: outward faces as in
+            // `ConvexPolyhedron::tetrahedron`.
+            faces: vec![[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]],
+        };
+        for (i, p) in pts.iter().enumerate() {
+            if i != a && i != b && i != c && i != d {
+                h.insert(p);
+            }
+        }
+        h.compact();
+        h
+    }
+
+    /// True when the hull is flat (all points coplanar) and has no faces.
+    pub fn is_flat(&self) -> bool {
+        self.faces.is_empty()
+    }
+
+    /// Inserts one point; returns whether the hull changed (the point saw some face).
+    fn insert(&mut self, p: &P3) -> bool {
+        let mut visible = vec![false; self.faces.len()];
+        let mut any = false;
+        for (k, f) in self.faces.iter().enumerate() {
+            let (a, b, c) = (
+                &self.pts[f[0] as usize],
+                &self.pts[f[1] as usize],
+                &self.pts[f[2] as usize],
+            );
+            if orient3d(a, b, c, p) > 0 {
+                visible[k] = true;
+                any = true;
+            }
+        }
+        if !any {
+            return false;
+        }
+        // Directed edges of the visible faces; an edge whose twin is not among them is on
+        // the horizon. The visible region of a convex hull is a topological disc.
+        let mut vis_edges: HashMap<(u32, u32), ()> = HashMap::new();
+        for (k, f) in self.faces.iter().enumerate() {
+            if visible[k] {
+                for e in 0..3 {
+                    vis_edges.insert((f[e], f[(e + 1) % 3]), ());
+                }
+            }
+        }
+        let pi = self.pts.len() as u32;
+        self.pts.push(*p);
+        let mut kept = Vec::with_capacity(self.faces.len() + 4);
+        let mut cone = Vec::new();
+        for (k, f) in self.faces.iter().enumerate() {
+            if !visible[k] {
+                kept.push(*f);
+                continue;
+            }
+            for e in 0..3 {
+                let (u, v) = (f[e], f[(e + 1) % 3]);
+                if !vis_edges.contains_key(&(v, u)) {
+                    cone.push([u, v, pi]);
+                }
+            }
+        }
+        kept.extend(cone);
+        self.faces = kept;
+        true
+    }
+
+    /// Drops points no face uses (keeps the order of the rest).
+    fn compact(&mut self) {
+        if self.faces.is_empty() {
+            return;
+        }
+        let mut map = vec![u32::MAX; self.pts.len()];
+        let mut pts = Vec::new();
+        for f in &mut self.faces {
+            for v in f.iter_mut() {
+                let m = &mut map[*v as usize];
+                if *m == u32::MAX {
+                    *m = pts.len() as u32;
+                    pts.push(self.pts[*v as usize]);
+                }
+                *v = *m;
+            }
+        }
+        self.pts = pts;
+    }
+
+    /// Inserts every point of `other` (the hull of the union); returns whether this hull
+    /// changed. When it did not, `self` is untouched.
+    pub fn insert_all(&mut self, other: &Hull3) -> bool {
+        if self.is_flat() || other.is_flat() {
+            let mut all = self.pts.clone();
+            all.extend_from_slice(&other.pts);
+            let h = Hull3::new(&all);
+            let changed = !same_set(&h.pts, &self.pts);
+            if changed {
+                *self = h;
+            }
+            return changed;
+        }
+        let mut changed = false;
+        for p in &other.pts {
+            changed |= self.insert(p);
+        }
+        if changed {
+            self.compact();
+        }
+        changed
+    }
+
+    /// Enclosed volume (0 for a flat hull).
+    pub fn volume(&self) -> f64 {
+        let Some(r) = self.pts.first() else { return 0.0 };
+        let mut v6 = 0.0;
+        for f in &self.faces {
+            let a = sub(&self.pts[f[0] as usize], r);
+            let b = sub(&self.pts[f[1] as usize], r);
+            let c = sub(&self.pts[f[2] as usize], r);
+            v6 += dot(&a, &cross(&b, &c));
+        }
+        v6 / 6.0
+    }
+
+    /// Axis-aligned bounding box.
+    pub fn aabb(&self) -> (P3, P3) {
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for p in &self.pts {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        (lo, hi)
+    }
+
+    /// Number of triangles.
+    #[cfg(test)]
+    pub fn num_faces(&self) -> usize {
+        self.faces.len()
+    }
+
+    /// Every point of `pts` is inside or on the hull (exact).
+    #[cfg(test)]
+    pub fn contains_all(&self, pts: &[P3]) -> bool {
+        pts.iter().all(|p| {
+            self.faces.iter().all(|f| {
+                orient3d(
+                    &self.pts[f[0] as usize],
+                    &self.pts[f[1] as usize],
+                    &self.pts[f[2] as usize],
+                    p,
+                ) <= 0
+            })
+        })
+    }
+}
+
+fn same_set(a: &[P3], b: &[P3]) -> bool {
+    if a.len() != b.len() {
+        return false;
+    }
+    let mut x: Vec<[u64; 3]> = a.iter().map(bits).collect();
+    let mut y: Vec<[u64; 3]> = b.iter().map(bits).collect();
+    x.sort_unstable();
+    y.sort_unstable();
+    x == y
+}
+
+/// Four points spanning a positively oriented tetrahedron, or `None` when all are coplanar.
+fn initial_simplex(pts: &[P3]) -> Option<[usize; 4]> {
+    if pts.len() < 4 {
+        return None;
+    }
+    let a = 0;
+    let d2 = |p: &P3| {
+        let d = sub(p, &pts[a]);
+        dot(&d, &d)
+    };
+    let b = (0..pts.len()).max_by(|&i, &j| d2(&pts[i]).total_cmp(&d2(&pts[j])))?;
+    if d2(&pts[b]) == 0.0 {
+        return None;
+    }
+    let ab = sub(&pts[b], &pts[a]);
+    let ar = |p: &P3| {
+        let c = cross(&ab, &sub(p, &pts[a]));
+        dot(&c, &c)
+    };
+    let mut c = (0..pts.len()).max_by(|&i, &j| ar(&pts[i]).total_cmp(&ar(&pts[j])))?;
+    if ar(&pts[c]) == 0.0 {
+        // Rounding may hide a tiny area: look for any exactly non-collinear point.
+        c = (0..pts.len()).find(|&i| !crate::predicates::collinear(&pts[a], &pts[b], &pts[i]))?;
+    }
+    let n = cross(&ab, &sub(&pts[c], &pts[a]));
+    let vol = |p: &P3| dot(&n, &sub(p, &pts[a])).abs();
+    let mut d = (0..pts.len()).max_by(|&i, &j| vol(&pts[i]).total_cmp(&vol(&pts[j])))?;
+    if orient3d(&pts[a], &pts[b], &pts[c], &pts[d]) == 0 {
+        d = (0..pts.len()).find(|&i| orient3d(&pts[a], &pts[b], &pts[c], &pts[i]) != 0)?;
+    }
+    if orient3d(&pts[a], &pts[b], &pts[c], &pts[d]) > 0 {
+        Some([a, b, c, d])
+    } else {
+        Some([b, a, c, d])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    struct Rng(u64);
+    impl Rng {
+        fn f(&mut self) -> f64 {
+            self.0 = self
+                .0
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (self.0 >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    #[test]
+    fn cube_with_inner_points_keeps_eight_corners() {
+        let mut pts = Vec::new();
+        for i in 0..8 {
+            pts.push([(i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64]);
+        }
+        let mut r = Rng(7);
+        for _ in 0..200 {
+            pts.push([r.f(), r.f(), r.f()]);
+        }
+        // Points on faces and edges (coplanar/collinear with the hull).
+        pts.push([0.5, 0.5, 0.0]);
+        pts.push([0.5, 0.0, 0.0]);
+        pts.push([1.0, 0.25, 0.75]);
+        // Shuffle so corners are not first.
+        pts.rotate_left(100);
+        let h = Hull3::new(&pts);
+        assert!(h.contains_all(&pts));
+        assert!((h.volume() - 1.0).abs() < 1e-12, "{}", h.volume());
+        assert!(h.pts.len() >= 8 && h.pts.len() <= 11, "{}", h.pts.len());
+        assert_eq!(h.num_faces(), 2 * h.pts.len() - 4);
+    }
+
+    #[test]
+    fn merge_reports_change_exactly() {
+        let mut r = Rng(11);
+        let a: Vec<P3> = (0..300).map(|_| [r.f() * 4.0, r.f() * 4.0, r.f() * 3.0]).collect();
+        let mut h = Hull3::new(&a);
+        let before = h.pts.clone();
+        let inside = Hull3::new(&[[1.0, 1.0, 1.0], [2.0, 1.0, 1.0], [1.0, 2.0, 1.0], [1.0, 1.0, 2.0]]);
+        assert!(!h.insert_all(&inside));
+        assert_eq!(h.pts, before);
+        let outside = Hull3::new(&[[5.0, 1.0, 1.0], [6.0, 1.0, 1.0], [5.0, 2.0, 1.0], [5.0, 1.0, 2.0]]);
+        assert!(h.insert_all(&outside));
+        let mut all = a.clone();
+        all.extend_from_slice(&outside.pts);
+        assert!(h.contains_all(&all));
+        let direct = Hull3::new(&all);
+        assert!((h.volume() - direct.volume()).abs() < 1e-9 * direct.volume());
+    }
+
+    #[test]
+    fn flat_points_give_flat_hull() {
+        let h = Hull3::new(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0]]);
+        assert!(h.is_flat());
+        assert_eq!(h.pts.len(), 4);
+        assert_eq!(h.volume(), 0.0);
+    }
+}

@@ -1,0 +1,818 @@
+//! Decimation: collapse neighbouring cells of the [`CellComplex`], the pair with the lowest
+//! portal weight first, until a stop rule holds (Gjørup 1999, sections 4.1.4 and 4.2.3).
+//!
+//! # Model
+//!
+//! - A **cell** here is a union of convex pieces (active cells of the complex). It is named
+//!   by the smallest [`CellId`] among its pieces, so names do not depend on history.
+//! - A **pair** is two neighbouring cells with *all* portal pieces between them; it has one
+//!   weight (4.1.4: "we sum the areas of the involved portals"). A collapse removes the
+//!   pair's portals, merges the two cells, and rewires their neighbours: the merged cell's
+//!   portal set towards a neighbour is the union of the two cells' sets.
+//! - The **portal plane** of a pair has as normal the area-weighted mean of its pieces'
+//!   normals, all oriented from one cell to the other (the sum of their area vectors,
+//!   normalized). When that mean degenerates — the sum's length is at most
+//!   [`MEAN_NORMAL_REL`] times the summed areas (pieces facing opposite ways cancel) — the
+//!   normal of the largest piece (the first of equal ones) is used instead. Projected
+//!   areas are taken in the plane's canonical frame ([`project::Frame`]).
+//! - **Weights** come from a [`Heuristic`] ([`heuristic`] has the formulas and their thesis
+//!   sections); projected areas from an [`Estimator`] ([`estimator`] has the three measures
+//!   and the per-cell state that makes a collapse cost about the size of what changed).
+//!
+//! # Order and determinism
+//!
+//! Weights are rounded to 30 significant bits ([`heuristic::sanitize`]), so weights equal
+//! up to floating-point noise tie exactly. The queue ([`queue`]) pops the lowest
+//! `(weight, smaller of the two volumes, lower id, higher id)`: among equal weights the
+//! smaller cell is absorbed first (on axis-aligned scenes many weights are exactly 1, 2 or
+//! 6; without this rule the cells' numbering would decide). All maps that are iterated
+//! use a fixed hasher, so a run is a deterministic function of the complex and the
+//! settings. Every collapse is recorded as a [`Step`]; [`Decimation::replay`] rebuilds the
+//! partition after any prefix of the steps without evaluating a single weight.
+//!
+//! # What a collapse costs
+//!
+//! Collapsing `A` and `B` (survivor: the one with more pieces; the other's pieces are
+//! relabelled, so relabelling is `O(n log n)` over a run): the absorbed cell's pairs are
+//! re-keyed or fused into the survivor's (`O(deg B)`), the estimator states are merged,
+//! and only pairs whose inputs changed are re-weighed: the pairs that gained portals, and
+//! the survivor's other pairs *only if* its estimator state changed (for `bbox` and
+//! `hull`: only if the absorbed cell stuck out of the survivor's 3D hull) or the heuristic
+//! uses volumes. Pairs whose inputs did not change would get bit-identical weights, so
+//! skipping them changes nothing. A re-weighed pair recomputes only the projected areas
+//! whose inputs changed: both sides when its portal set (so its plane) changed; otherwise
+//! only the survivor's — for `union` incrementally, as the stored area plus what the
+//! absorbed blocks add ([`estimator`]) — and the neighbour's stored area is reused.
+//! The test `incremental_projected_areas_equal_from_scratch_areas` checks every recorded
+//! area against a from-scratch computation on the replayed state.
+//!
+//! # The "most weights are about 1" observation (thesis 5.1)
+//!
+//! The thesis suggests limiting the sorting to a small subset because most initial pairs
+//! weigh about 1. Merging those pairs in a cheap pre-pass (in any order) is **not** exact:
+//! each collapse changes its neighbours' weights, so which near-1 pair goes first changes
+//! what the next ones weigh, and ties at exactly the lower bound are not guaranteed either
+//! (only `aspect` has a bound of 1, and only for coplanar portal sets). What *is* exact is
+//! keeping pairs that cannot be popped out of the heap: with a `threshold:W` stop, pairs at
+//! or above `W` are parked outside it ([`QueueMode::Auto`], proof in [`queue`], compared
+//! step by step against the exact heap in the tests). Heap operations are a small part of
+//! the run anyway: the estimators dominate.
+
+pub mod estimator;
+pub mod heuristic;
+mod hull3;
+pub mod project;
+pub mod queue;
+pub mod testscenes;
+
+pub use estimator::Estimator;
+pub use heuristic::{Heuristic, HeuristicKind, PairContext};
+pub use queue::{QueueMode, QueueStats};
+
+use crate::complex::CellComplex;
+use crate::geom::{ConvexPolygon, min_volume};
+use crate::ids::CellId;
+use crate::predicates::P3;
+use estimator::Shape;
+use project::Frame;
+use queue::{DetMap, Key, Queue};
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::str::FromStr;
+use std::time::Instant;
+
+/// The mean portal normal degenerates when the area vectors' sum is at most this fraction
+/// of the summed areas; the largest piece's normal is used then.
+pub const MEAN_NORMAL_REL: f64 = 1e-6;
+
+/// When to stop collapsing.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", content = "value", rename_all = "lowercase")]
+pub enum StopRule {
+    /// Stop when the lowest weight is `>= W` (`threshold:W`).
+    Threshold(f64),
+    /// Stop when at most `N` cells are left (`cells:N`).
+    Cells(usize),
+    /// Run until no pair is left: one cell per connected region (`none`).
+    None,
+}
+
+impl fmt::Display for StopRule {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            StopRule::Threshold(w) => write!(f, "threshold:{w}"),
+            StopRule::Cells(n) => write!(f, "cells:{n}"),
+            StopRule::None => f.write_str("none"),
+        }
+    }
+}
+
+impl FromStr for StopRule {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        let bad = || format!("bad stop rule {s:?}; use threshold:W, cells:N or none");
+        if s == "none" {
+            return Ok(StopRule::None);
+        }
+        let (kind, v) = s.split_once(':').ok_or_else(bad)?;
+        match kind {
+            "threshold" => {
+                let w: f64 = v.parse().map_err(|_| bad())?;
+                if w.is_nan() {
+                    return Err(bad());
+                }
+                Ok(StopRule::Threshold(w))
+            }
+            "cells" => Ok(StopRule::Cells(v.parse().map_err(|_| bad())?)),
+            _ => Err(bad()),
+        }
+    }
+}
+
+/// Why the decimation stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "lowercase")]
+pub enum StopReason {
+    /// The lowest weight reached the threshold.
+    Threshold {
+        /// The threshold.
+        threshold: f64,
+        /// The lowest weight left (the pair that would have been collapsed next).
+        next_weight: f64,
+    },
+    /// The cell count reached the target.
+    Cells {
+        /// The target.
+        target: usize,
+    },
+    /// No pair left: one cell per connected region.
+    Exhausted,
+}
+
+/// Decimation settings.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Settings {
+    /// Portal weight.
+    pub heuristic: HeuristicKind,
+    /// Projected-area measure.
+    pub estimator: Estimator,
+    /// Stop rule.
+    pub stop: StopRule,
+    /// Queue implementation (identical results).
+    pub queue: QueueMode,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            heuristic: HeuristicKind::Aspect,
+            estimator: Estimator::Hull,
+            stop: StopRule::None,
+            queue: QueueMode::Auto,
+        }
+    }
+}
+
+/// One collapse.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Step {
+    /// The cell that survives (the lower id of the two).
+    pub a: CellId,
+    /// The cell absorbed into `a`.
+    pub b: CellId,
+    /// The pair's weight.
+    pub weight: f64,
+    /// Cells left after the collapse.
+    pub cells_remaining: usize,
+    /// Summed area of the portals removed.
+    pub portal_area: f64,
+    /// Projected areas of `a` and `b` on the portal plane.
+    pub projected: [f64; 2],
+}
+
+/// Counters and timings of a run.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct DecimationStats {
+    /// Active cells at the start.
+    pub initial_cells: usize,
+    /// Neighbouring pairs at the start.
+    pub initial_pairs: usize,
+    /// Connected regions of the portal graph (the fewest cells a run can reach).
+    pub regions: usize,
+    /// Collapses performed.
+    pub steps: usize,
+    /// Weights evaluated (initial ones included).
+    pub weights_computed: u64,
+    /// Pair re-weighs skipped because none of their inputs changed.
+    pub reweighs_skipped: u64,
+    /// Queue counters.
+    pub queue: QueueStats,
+    /// Largest per-cell estimator state (hull vertices, summed over blocks for `union`).
+    pub max_shape_vertices: usize,
+    /// Seconds spent on initial weights.
+    pub init_seconds: f64,
+    /// Seconds spent collapsing.
+    pub collapse_seconds: f64,
+}
+
+/// A (merged) cell of a partition.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MergedCell {
+    /// Its name: the smallest id among its pieces.
+    pub id: CellId,
+    /// Its convex pieces (active cells of the complex), sorted.
+    pub pieces: Vec<CellId>,
+    /// Summed volume of the pieces.
+    pub volume: f64,
+}
+
+/// All portals between two cells of a partition.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MergedPortal {
+    /// The two cells' ids, `cells[0] < cells[1]`.
+    pub cells: [CellId; 2],
+    /// Indices into [`CellComplex::portals`].
+    pub portals: Vec<usize>,
+    /// Convex pieces, oriented from `cells[0]` to `cells[1]`.
+    pub pieces: Vec<ConvexPolygon>,
+    /// Summed area.
+    pub area: f64,
+    /// Unit portal-plane normal from `cells[0]` to `cells[1]` (see the module docs).
+    pub mean_normal: P3,
+}
+
+/// A partition of the active cells into merged cells.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Partition {
+    /// Cells, sorted by id.
+    pub cells: Vec<MergedCell>,
+    /// For each cell id of the complex: its index in `cells` (`u32::MAX`: not active).
+    index: Vec<u32>,
+}
+
+impl Partition {
+    /// Index in [`Partition::cells`] of the merged cell holding complex cell `c`.
+    pub fn cell_of(&self, c: CellId) -> Option<usize> {
+        self.index.get(c.idx()).filter(|&&i| i != u32::MAX).map(|&i| i as usize)
+    }
+
+    /// Number of cells.
+    pub fn len(&self) -> usize {
+        self.cells.len()
+    }
+
+    /// True when there are no cells.
+    pub fn is_empty(&self) -> bool {
+        self.cells.is_empty()
+    }
+
+    fn from_groups(cx: &CellComplex, mut groups: Vec<Vec<CellId>>) -> Self {
+        for g in &mut groups {
+            g.sort_unstable();
+        }
+        groups.sort_unstable_by_key(|g| g[0]);
+        let mut index = vec![u32::MAX; cx.cells.len()];
+        let cells = groups
+            .into_iter()
+            .enumerate()
+            .map(|(i, pieces)| {
+                for p in &pieces {
+                    index[p.idx()] = i as u32;
+                }
+                MergedCell {
+                    id: pieces[0],
+                    volume: pieces.iter().map(|p| cx.cells[p.idx()].poly.volume()).sum(),
+                    pieces,
+                }
+            })
+            .collect();
+        Partition { cells, index }
+    }
+
+    /// The portals between different cells, sorted by cell pair.
+    pub fn portals(&self, cx: &CellComplex) -> Vec<MergedPortal> {
+        let mut by_pair: std::collections::BTreeMap<(u32, u32), Vec<usize>> = Default::default();
+        for (k, p) in cx.portals.iter().enumerate() {
+            let (Some(i), Some(j)) = (self.cell_of(p.cells[0]), self.cell_of(p.cells[1])) else {
+                continue;
+            };
+            if i != j {
+                by_pair.entry((i.min(j) as u32, i.max(j) as u32)).or_default().push(k);
+            }
+        }
+        by_pair
+            .into_iter()
+            .map(|((i, j), portals)| {
+                let lo = &self.cells[i as usize];
+                let mut pieces = Vec::new();
+                for &k in &portals {
+                    let p = &cx.portals[k];
+                    let forward = self.cell_of(p.cells[0]) == Some(i as usize);
+                    for q in &p.pieces {
+                        pieces.push(if forward { q.clone() } else { q.reversed() });
+                    }
+                }
+                let area = pieces.iter().map(|q| q.area()).sum();
+                let (av, largest) = portal_vectors(&pieces);
+                MergedPortal {
+                    cells: [lo.id, self.cells[j as usize].id],
+                    portals,
+                    mean_normal: mean_normal(&av, area, &largest.1),
+                    area,
+                    pieces,
+                }
+            })
+            .collect()
+    }
+}
+
+/// Summed area vector and (area, unit normal, centroid) of the largest piece.
+fn portal_vectors(pieces: &[ConvexPolygon]) -> (P3, (f64, P3, P3)) {
+    let mut av = [0.0; 3];
+    let mut largest = (f64::NEG_INFINITY, [0.0; 3], [0.0; 3]);
+    for q in pieces {
+        let v = q.area_vector();
+        for k in 0..3 {
+            av[k] += v[k];
+        }
+        let a = q.area();
+        if a > largest.0 {
+            largest = (a, q.normal(), q.centroid());
+        }
+    }
+    (av, largest)
+}
+
+fn norm(v: &P3) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+/// The portal-plane normal: normalized area-vector sum, or the fallback (see module docs).
+fn mean_normal(av: &P3, area: f64, fallback: &P3) -> P3 {
+    let l = norm(av);
+    if l > MEAN_NORMAL_REL * area && l.is_finite() {
+        [av[0] / l, av[1] / l, av[2] / l]
+    } else {
+        *fallback
+    }
+}
+
+/// Error of [`Decimation::replay`].
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum ReplayError {
+    /// A step names a cell that is not a live cell at that point.
+    #[error("step {step}: cell {cell} is not a live cell (already absorbed or not active)")]
+    NotLive {
+        /// 1-based step number.
+        step: usize,
+        /// The cell.
+        cell: CellId,
+    },
+    /// A step's cells are not ordered `a < b`.
+    #[error("step {step}: cells {a} and {b} are not ordered a < b")]
+    Order {
+        /// 1-based step number.
+        step: usize,
+        /// First cell.
+        a: CellId,
+        /// Second cell.
+        b: CellId,
+    },
+}
+
+/// The outcome of a run.
+#[derive(Clone, Debug)]
+pub struct Decimation {
+    /// Settings used.
+    pub settings: Settings,
+    /// Collapses in order.
+    pub steps: Vec<Step>,
+    /// Why it stopped.
+    pub stop: StopReason,
+    /// Counters and timings.
+    pub stats: DecimationStats,
+    /// The final partition.
+    pub partition: Partition,
+}
+
+struct Live {
+    name: CellId,
+    pieces: Vec<CellId>,
+    volume: f64,
+    shape: Shape,
+    nbrs: DetMap<u32, u32>,
+}
+
+struct Pair {
+    s: [u32; 2],
+    portals: Vec<u32>,
+    area: f64,
+    /// Area-vector sum oriented from `s[0]` to `s[1]`.
+    av: P3,
+    /// Largest piece: (area, unit normal from `s[0]` to `s[1]`, centroid).
+    largest: (f64, P3, P3),
+    weight: f64,
+    projected: [f64; 2],
+    /// The key it is queued with.
+    key: Option<Key>,
+    alive: bool,
+}
+
+/// How a side's projected area is obtained when re-weighing a pair.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Side {
+    /// Computed from scratch.
+    Full,
+    /// The cell absorbed another on an unchanged plane: grown from the stored value.
+    Grown,
+    /// Neither the cell nor the plane changed: the stored value is exact.
+    Valid,
+}
+
+struct Engine<'a> {
+    cx: &'a CellComplex,
+    settings: Settings,
+    h: &'static dyn Heuristic,
+    slot_of: Vec<u32>,
+    live: Vec<Option<Live>>,
+    pairs: Vec<Pair>,
+    queue: Queue,
+    live_count: usize,
+    stats: DecimationStats,
+    area_floor: f64,
+    vol_floor: f64,
+}
+
+impl<'a> Engine<'a> {
+    fn new(cx: &'a CellComplex, settings: Settings) -> Self {
+        let est = settings.estimator;
+        let mut slot_of = vec![u32::MAX; cx.cells.len()];
+        let mut live = Vec::new();
+        for (id, c) in cx.active_cells() {
+            slot_of[id.idx()] = live.len() as u32;
+            live.push(Some(Live {
+                name: id,
+                pieces: vec![id],
+                volume: c.poly.volume(),
+                shape: Shape::piece(est, &c.poly.vertices(), c.poly.volume()),
+                nbrs: DetMap::default(),
+            }));
+        }
+        let mut pairs = Vec::with_capacity(cx.portals.len());
+        for (k, p) in cx.portals.iter().enumerate() {
+            let s = [slot_of[p.cells[0].idx()], slot_of[p.cells[1].idx()]];
+            if s[0] == u32::MAX || s[1] == u32::MAX || s[0] == s[1] {
+                continue;
+            }
+            let (av, largest) = portal_vectors(&p.pieces);
+            let area = p.pieces.iter().map(|q| q.area()).sum();
+            let pi = pairs.len() as u32;
+            // The complex groups portals per pair, but be safe about repeats.
+            if let Some(&q) = live[s[0] as usize].as_ref().and_then(|l| l.nbrs.get(&s[1])) {
+                let q = &mut pairs[q as usize] as &mut Pair;
+                let sign = if q.s[0] == s[0] { 1.0 } else { -1.0 };
+                q.portals.push(k as u32);
+                q.area += area;
+                for i in 0..3 {
+                    q.av[i] += sign * av[i];
+                }
+                if largest.0 > q.largest.0 {
+                    q.largest = (largest.0, largest.1.map(|x| sign * x), largest.2);
+                }
+                continue;
+            }
+            pairs.push(Pair {
+                s,
+                portals: vec![k as u32],
+                area,
+                av,
+                largest,
+                weight: 0.0,
+                projected: [0.0; 2],
+                key: None,
+                alive: true,
+            });
+            live[s[0] as usize].as_mut().unwrap().nbrs.insert(s[1], pi);
+            live[s[1] as usize].as_mut().unwrap().nbrs.insert(s[0], pi);
+        }
+        let park_at = match (settings.queue, settings.stop) {
+            (QueueMode::Auto, StopRule::Threshold(w)) => Some(w),
+            _ => None,
+        };
+        let stats = DecimationStats {
+            initial_cells: live.len(),
+            initial_pairs: pairs.len(),
+            regions: count_regions(live.len(), &pairs),
+            ..Default::default()
+        };
+        let live_count = live.len();
+        Engine {
+            cx,
+            settings,
+            h: settings.heuristic.heuristic(),
+            slot_of,
+            queue: Queue::new(pairs.len(), park_at),
+            live,
+            pairs,
+            live_count,
+            stats,
+            area_floor: cx.tol.area_abs(),
+            vol_floor: min_volume(&cx.tol),
+        }
+    }
+
+    fn cell(&self, s: u32) -> &Live {
+        self.live[s as usize].as_ref().expect("live slot")
+    }
+
+    fn key(&self, p: u32) -> Key {
+        let pr = &self.pairs[p as usize];
+        let (ca, cb) = (self.cell(pr.s[0]), self.cell(pr.s[1]));
+        let (a, b) = (ca.name.0, cb.name.0);
+        Key {
+            w: pr.weight,
+            v: ca.volume.min(cb.volume),
+            lo: a.min(b),
+            hi: a.max(b),
+        }
+    }
+
+    /// Recomputes a pair's weight from its current inputs; `how` says, per side, whether
+    /// its projected area is recomputed, grown incrementally, or still valid.
+    fn weigh(&mut self, p: u32, how: [Side; 2]) {
+        let pr = &self.pairs[p as usize];
+        let n = mean_normal(&pr.av, pr.area, &pr.largest.1);
+        let frame = Frame::new(n, pr.largest.2)
+            .or_else(|| Frame::new([0.0, 0.0, 1.0], pr.largest.2))
+            .expect("unit z frame");
+        let (c0, c1) = (self.cell(pr.s[0]), self.cell(pr.s[1]));
+        let est = self.settings.estimator;
+        let side = |c: &Live, how: Side, before: f64| match how {
+            Side::Full => c.shape.projected_area(est, &frame),
+            Side::Grown => c.shape.projected_area_grown(est, &frame, before),
+            Side::Valid => before,
+        };
+        let projected = [side(c0, how[0], pr.projected[0]), side(c1, how[1], pr.projected[1])];
+        let ctx = PairContext {
+            portal_area: pr.area.max(self.area_floor),
+            projected,
+            volumes: [c0.volume.max(self.vol_floor), c1.volume.max(self.vol_floor)],
+            pieces: [c0.pieces.len(), c1.pieces.len()],
+        };
+        let w = heuristic::sanitize(self.h.weight(&ctx));
+        let pr = &mut self.pairs[p as usize];
+        pr.weight = w;
+        pr.projected = projected;
+        self.stats.weights_computed += 1;
+    }
+
+    fn init_weights(&mut self) {
+        for p in 0..self.pairs.len() as u32 {
+            self.weigh(p, [Side::Full; 2]);
+            self.requeue(p);
+        }
+    }
+
+    /// Puts a pair into the queue with its current key, unless it is there already.
+    fn requeue(&mut self, p: u32) {
+        let k = self.key(p);
+        let pr = &mut self.pairs[p as usize];
+        if pr.key != Some(k) {
+            pr.key = Some(k);
+            self.queue.set(p, k);
+        }
+    }
+
+    /// Collapses pair `p`; returns the step.
+    fn collapse(&mut self, p: u32, w: f64) -> Step {
+        let pr = &self.pairs[p as usize];
+        let [x, y] = pr.s;
+        let (nx, ny) = (self.cell(x).name, self.cell(y).name);
+        let projected = if nx < ny {
+            pr.projected
+        } else {
+            [pr.projected[1], pr.projected[0]]
+        };
+        let portal_area = pr.area;
+        // Survivor slot: more pieces (ties: lower name). Name: the lower one.
+        let (px, py) = (self.cell(x).pieces.len(), self.cell(y).pieces.len());
+        let (s, r) = if px > py || (px == py && nx < ny) {
+            (x, y)
+        } else {
+            (y, x)
+        };
+        self.pairs[p as usize].alive = false;
+        self.queue.remove(p);
+        let mut rc = self.live[r as usize].take().expect("live");
+        rc.nbrs.remove(&s);
+        let mut sc = self.live[s as usize].take().expect("live");
+        sc.nbrs.remove(&r);
+        // Rewire the absorbed cell's pairs.
+        let mut touched: Vec<u32> = Vec::new();
+        let mut rn: Vec<(u32, u32)> = rc.nbrs.iter().map(|(&k, &v)| (k, v)).collect();
+        rn.sort_unstable();
+        for (xn, q) in rn {
+            let nb = self.live[xn as usize].as_mut().expect("neighbour live");
+            nb.nbrs.remove(&r);
+            // Orientation of q as "from the merged side": sign +1 if q.s[0] == r.
+            let qs = self.pairs[q as usize].s;
+            let sign_q = if qs[0] == r { 1.0 } else { -1.0 };
+            if let Some(&t) = sc.nbrs.get(&xn) {
+                // Fuse q into the survivor's pair t.
+                let ts = self.pairs[t as usize].s;
+                let sign_t = if ts[0] == s { 1.0 } else { -1.0 };
+                let f = sign_q * sign_t;
+                let (qp, qa, qav, ql) = {
+                    let qq = &mut self.pairs[q as usize];
+                    qq.alive = false;
+                    (std::mem::take(&mut qq.portals), qq.area, qq.av, qq.largest)
+                };
+                self.queue.remove(q);
+                let tt = &mut self.pairs[t as usize];
+                tt.portals.extend(qp);
+                tt.area += qa;
+                for i in 0..3 {
+                    tt.av[i] += f * qav[i];
+                }
+                if ql.0 > tt.largest.0 {
+                    tt.largest = (ql.0, ql.1.map(|v| f * v), ql.2);
+                }
+                touched.push(t);
+            } else {
+                let qq = &mut self.pairs[q as usize];
+                if qq.s[0] == r {
+                    qq.s[0] = s;
+                } else {
+                    qq.s[1] = s;
+                }
+                sc.nbrs.insert(xn, q);
+                nb.nbrs.insert(s, q);
+                touched.push(q);
+            }
+        }
+        // Merge cells.
+        let changed = sc
+            .shape
+            .absorb(std::mem::replace(&mut rc.shape, Shape::Hull(Default::default())));
+        for &c in &rc.pieces {
+            self.slot_of[c.idx()] = s;
+        }
+        sc.pieces.extend(rc.pieces);
+        sc.volume += rc.volume;
+        sc.name = sc.name.min(rc.name);
+        self.stats.max_shape_vertices = self.stats.max_shape_vertices.max(sc.shape.size());
+        let all: Vec<u32> = {
+            let mut v: Vec<u32> = sc.nbrs.values().copied().collect();
+            v.sort_unstable();
+            v
+        };
+        self.live[s as usize] = Some(sc);
+        self.live_count -= 1;
+        let reweigh_all = changed || self.h.uses_volume();
+        touched.sort_unstable();
+        for &q in &all {
+            if touched.binary_search(&q).is_ok() {
+                // New portal set, so a new plane: both sides from scratch.
+                self.weigh(q, [Side::Full; 2]);
+            } else if reweigh_all {
+                // Same plane; the neighbour did not change, the survivor grew.
+                let mine = if changed { Side::Grown } else { Side::Valid };
+                let how = if self.pairs[q as usize].s[0] == s {
+                    [mine, Side::Valid]
+                } else {
+                    [Side::Valid, mine]
+                };
+                self.weigh(q, how);
+            } else {
+                self.stats.reweighs_skipped += 1;
+            }
+            // The weight may be unchanged, but the tie-break part of the key (the smaller
+            // volume, the names) may still have changed.
+            self.requeue(q);
+        }
+        if let Some(c) = self.live[s as usize].as_mut() {
+            c.shape.settle(&self.cx.tol);
+        }
+        let a = nx.min(ny);
+        let b = nx.max(ny);
+        Step {
+            a,
+            b,
+            weight: w,
+            cells_remaining: self.live_count,
+            portal_area,
+            projected,
+        }
+    }
+
+    fn run(mut self, progress: &mut dyn FnMut(usize, usize)) -> Decimation {
+        let t0 = Instant::now();
+        self.init_weights();
+        self.stats.init_seconds = t0.elapsed().as_secs_f64();
+        let t1 = Instant::now();
+        let mut steps = Vec::new();
+        let stop = loop {
+            if let StopRule::Cells(n) = self.settings.stop
+                && self.live_count <= n
+            {
+                break StopReason::Cells { target: n };
+            }
+            let Some((p, k)) = self.queue.peek() else {
+                break match (self.settings.stop, self.queue.parked_min()) {
+                    (StopRule::Threshold(t), Some(m)) => StopReason::Threshold {
+                        threshold: t,
+                        next_weight: m.w,
+                    },
+                    _ => StopReason::Exhausted,
+                };
+            };
+            if let StopRule::Threshold(t) = self.settings.stop
+                && k.w >= t
+            {
+                break StopReason::Threshold {
+                    threshold: t,
+                    next_weight: k.w,
+                };
+            }
+            self.queue.pop();
+            let step = self.collapse(p, k.w);
+            steps.push(step);
+            progress(steps.len(), self.live_count);
+        };
+        self.stats.collapse_seconds = t1.elapsed().as_secs_f64();
+        self.stats.steps = steps.len();
+        self.stats.queue = self.queue.stats;
+        let groups: Vec<Vec<CellId>> = self.live.into_iter().flatten().map(|l| l.pieces).collect();
+        Decimation {
+            settings: self.settings,
+            partition: Partition::from_groups(self.cx, groups),
+            steps,
+            stop,
+            stats: self.stats,
+        }
+    }
+}
+
+fn count_regions(n: usize, pairs: &[Pair]) -> usize {
+    let mut parent: Vec<u32> = (0..n as u32).collect();
+    fn find(p: &mut [u32], mut x: u32) -> u32 {
+        while p[x as usize] != x {
+            p[x as usize] = p[p[x as usize] as usize];
+            x = p[x as usize];
+        }
+        x
+    }
+    let mut regions = n;
+    for pr in pairs {
+        let (a, b) = (find(&mut parent, pr.s[0]), find(&mut parent, pr.s[1]));
+        if a != b {
+            parent[a.max(b) as usize] = a.min(b);
+            regions -= 1;
+        }
+    }
+    regions
+}
+
+impl Decimation {
+    /// Runs the decimation on the active cells of `cx`.
+    pub fn run(cx: &CellComplex, settings: &Settings) -> Decimation {
+        Self::run_with_progress(cx, settings, &mut |_, _| {})
+    }
+
+    /// As [`Decimation::run`], calling `progress(steps done, cells left)` after each collapse.
+    pub fn run_with_progress(
+        cx: &CellComplex,
+        settings: &Settings,
+        progress: &mut dyn FnMut(usize, usize),
+    ) -> Decimation {
+        Engine::new(cx, *settings).run(progress)
+    }
+
+    /// The partition after the first `steps.len()` collapses of a run, rebuilt by merging
+    /// the recorded pairs (no weight is evaluated). Equal to the run's own state at that
+    /// step; checks that each step names two live cells.
+    pub fn replay(cx: &CellComplex, steps: &[Step]) -> Result<Partition, ReplayError> {
+        let mut groups: Vec<Option<Vec<CellId>>> = vec![None; cx.cells.len()];
+        for (id, _) in cx.active_cells() {
+            groups[id.idx()] = Some(vec![id]);
+        }
+        for (i, st) in steps.iter().enumerate() {
+            let step = i + 1;
+            if st.a >= st.b {
+                return Err(ReplayError::Order { step, a: st.a, b: st.b });
+            }
+            for c in [st.a, st.b] {
+                if groups.get(c.idx()).is_none_or(|g| g.is_none()) {
+                    return Err(ReplayError::NotLive { step, cell: c });
+                }
+            }
+            let mut gb = groups[st.b.idx()].take().expect("checked");
+            let ga = groups[st.a.idx()].as_mut().expect("checked");
+            if ga.len() < gb.len() {
+                std::mem::swap(ga, &mut gb);
+            }
+            ga.extend(gb);
+        }
+        Ok(Partition::from_groups(cx, groups.into_iter().flatten().collect()))
+    }
+}

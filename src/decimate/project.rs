@@ -1,0 +1,549 @@
+//! The portal plane, its canonical 2D frame, and the 2D measures of projected cells:
+//! bounding rectangle, convex hull area, and the exact area of a union of convex polygons.
+
+use crate::predicates::P3;
+
+/// A 2D point in a [`Frame`].
+pub type P2 = [f64; 2];
+
+/// Relative tolerance (of the extent of the input) under which a polygon edge counts as
+/// lying on another polygon's edge line in [`union_area`].
+pub const UNION_COLLINEAR_REL: f64 = 1e-9;
+
+/// An orthonormal frame on a plane: canonical unit normal `n`, in-plane axes `u`, `v`
+/// (`u × v = n`), and an origin `o` (coordinates are taken relative to it, so projection
+/// loses nothing to large absolute coordinates).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frame {
+    /// Unit normal, sign-canonical: its largest-magnitude component (first on ties) is > 0.
+    pub n: P3,
+    /// First in-plane axis.
+    pub u: P3,
+    /// Second in-plane axis.
+    pub v: P3,
+    /// Origin.
+    pub o: P3,
+}
+
+fn sub(a: &P3, b: &P3) -> P3 {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+fn cross(a: &P3, b: &P3) -> P3 {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+fn dot(a: &P3, b: &P3) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+fn norm(a: &P3) -> f64 {
+    dot(a, a).sqrt()
+}
+
+impl Frame {
+    /// The canonical frame for a (non-zero) normal direction: `n` is normalized and its sign
+    /// fixed (largest-magnitude component positive, the first one on ties), so both
+    /// orientations of a portal give the same frame. `u` is `e_k × n` normalized, where
+    /// `e_k` is the coordinate axis along which `|n|` is smallest (the first on ties), and
+    /// `v = n × u`. Returns `None` for a zero or non-finite normal.
+    pub fn new(normal: P3, origin: P3) -> Option<Self> {
+        let l = norm(&normal);
+        if l.is_nan() || l <= 0.0 || !l.is_finite() {
+            return None;
+        }
+        let mut n = [normal[0] / l, normal[1] / l, normal[2] / l];
+        let big = (0..3).fold(0, |m, k| if n[k].abs() > n[m].abs() { k } else { m });
+        if n[big] < 0.0 {
+            n = [-n[0], -n[1], -n[2]];
+        }
+        let small = (0..3).fold(0, |m, k| if n[k].abs() < n[m].abs() { k } else { m });
+        let mut e = [0.0; 3];
+        e[small] = 1.0;
+        let u0 = cross(&e, &n);
+        let lu = norm(&u0);
+        let u = [u0[0] / lu, u0[1] / lu, u0[2] / lu];
+        let v = cross(&n, &u);
+        Some(Frame { n, u, v, o: origin })
+    }
+
+    /// In-plane coordinates of `p` (orthogonal projection onto the plane through `o`).
+    pub fn project(&self, p: &P3) -> P2 {
+        let d = sub(p, &self.o);
+        [dot(&d, &self.u), dot(&d, &self.v)]
+    }
+}
+
+fn cross2(o: &P2, a: &P2, b: &P2) -> f64 {
+    (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+}
+
+/// Convex hull (Andrew's monotone chain), counter-clockwise, without collinear points.
+/// The result depends only on the *set* of input points (they are sorted first).
+pub fn hull2(mut pts: Vec<P2>) -> Vec<P2> {
+    pts.sort_unstable_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
+    pts.dedup();
+    if pts.len() < 3 {
+        return pts;
+    }
+    let mut h: Vec<P2> = Vec::with_capacity(2 * pts.len());
+    for p in pts.iter() {
+        while h.len() >= 2 && cross2(&h[h.len() - 2], &h[h.len() - 1], p) <= 0.0 {
+            h.pop();
+        }
+        h.push(*p);
+    }
+    let lower = h.len() + 1;
+    for p in pts.iter().rev().skip(1) {
+        while h.len() >= lower && cross2(&h[h.len() - 2], &h[h.len() - 1], p) <= 0.0 {
+            h.pop();
+        }
+        h.push(*p);
+    }
+    h.pop();
+    h
+}
+
+/// Signed area (positive counter-clockwise), relative to the first vertex.
+pub fn polygon_area(p: &[P2]) -> f64 {
+    if p.len() < 3 {
+        return 0.0;
+    }
+    let o = p[0];
+    let mut s = 0.0;
+    for i in 1..p.len() - 1 {
+        s += cross2(&o, &p[i], &p[i + 1]);
+    }
+    0.5 * s
+}
+
+/// Area of the axis-aligned bounding rectangle of the points.
+pub fn bbox_area(pts: &[P2]) -> f64 {
+    if pts.is_empty() {
+        return 0.0;
+    }
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for p in pts {
+        for k in 0..2 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    (hi[0] - lo[0]) * (hi[1] - lo[1])
+}
+
+fn bbox2(p: &[P2]) -> (P2, P2) {
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for q in p {
+        for k in 0..2 {
+            lo[k] = lo[k].min(q[k]);
+            hi[k] = hi[k].max(q[k]);
+        }
+    }
+    (lo, hi)
+}
+
+fn overlaps(a: &(P2, P2), b: &(P2, P2), tol: f64) -> bool {
+    a.0[0] <= b.1[0] + tol && b.0[0] <= a.1[0] + tol && a.0[1] <= b.1[1] + tol && b.0[1] <= a.1[1] + tol
+}
+
+/// Polygons prepared for coverage queries: the non-degenerate ones with their boxes.
+struct Prepared<'a> {
+    polys: Vec<&'a [P2]>,
+    boxes: Vec<(P2, P2)>,
+}
+
+impl<'a> Prepared<'a> {
+    fn new(polys: &'a [Vec<P2>]) -> Self {
+        let polys: Vec<&[P2]> = polys
+            .iter()
+            .filter(|p| p.len() >= 3 && polygon_area(p) > 0.0)
+            .map(|p| p.as_slice())
+            .collect();
+        let boxes = polys.iter().map(|p| bbox2(p)).collect();
+        Prepared { polys, boxes }
+    }
+
+    /// As [`Prepared::new`], without the polygons that lie inside one of the
+    /// [`PRUNE_AGAINST`] largest kept ones (within the collinearity tolerance): they change
+    /// neither the union nor its boundary. Projections of a room's blocks onto a wall plane
+    /// are mostly hidden behind a few large ones, so this removes most of them cheaply.
+    fn pruned(polys: &'a [Vec<P2>]) -> Self {
+        let all = Prepared::new(polys);
+        if all.polys.len() <= 2 {
+            return all;
+        }
+        let (_, extent) = all.extent(None);
+        let tol = UNION_COLLINEAR_REL * extent;
+        let mut order: Vec<(f64, usize)> = all
+            .polys
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (polygon_area(p), i))
+            .collect();
+        order.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        let mut keep: Vec<usize> = Vec::with_capacity(order.len());
+        for &(_, i) in &order {
+            let p = all.polys[i];
+            let (lo, hi) = all.boxes[i];
+            let hidden = keep.iter().take(PRUNE_AGAINST).any(|&j| {
+                let (qlo, qhi) = all.boxes[j];
+                qlo[0] <= lo[0] + tol
+                    && qlo[1] <= lo[1] + tol
+                    && qhi[0] >= hi[0] - tol
+                    && qhi[1] >= hi[1] - tol
+                    && p.iter().all(|v| inside(all.polys[j], v, tol))
+            });
+            if !hidden {
+                keep.push(i);
+            }
+        }
+        // Restore input order (the tie rules follow it).
+        keep.sort_unstable();
+        Prepared {
+            polys: keep.iter().map(|&i| all.polys[i]).collect(),
+            boxes: keep.iter().map(|&i| all.boxes[i]).collect(),
+        }
+    }
+
+    /// Appends to `out` the parameter intervals of segment `a → b` covered by the polygons
+    /// of this set other than `skip`; `wins(j)`: whether polygon `j` keeps a boundary
+    /// shared on the same side.
+    fn cover(
+        &self,
+        a: &P2,
+        b: &P2,
+        skip: Option<usize>,
+        wins: impl Fn(usize) -> bool,
+        tol: f64,
+        out: &mut Vec<(f64, f64)>,
+    ) {
+        let sb = ([a[0].min(b[0]), a[1].min(b[1])], [a[0].max(b[0]), a[1].max(b[1])]);
+        for (j, q) in self.polys.iter().enumerate() {
+            if Some(j) == skip || !overlaps(&sb, &self.boxes[j], tol) {
+                continue;
+            }
+            if let Some(iv) = covered(a, b, q, wins(j), tol) {
+                out.push(iv);
+            }
+        }
+    }
+
+    fn extent(&self, other: Option<&Prepared>) -> ((P2, P2), f64) {
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for b in self.boxes.iter().chain(other.iter().flat_map(|o| o.boxes.iter())) {
+            for k in 0..2 {
+                lo[k] = lo[k].min(b.0[k]);
+                hi[k] = hi[k].max(b.1[k]);
+            }
+        }
+        ((lo, hi), (hi[0] - lo[0]).max(hi[1] - lo[1]))
+    }
+}
+
+/// How many of the largest polygons [`Prepared::pruned`] tests containment against.
+const PRUNE_AGAINST: usize = 32;
+
+/// `v` is inside convex CCW polygon `q` or within `tol` of it.
+fn inside(q: &[P2], v: &P2, tol: f64) -> bool {
+    let m = q.len();
+    (0..m).all(|k| {
+        let (a, b) = (q[k], q[(k + 1) % m]);
+        let e = [b[0] - a[0], b[1] - a[1]];
+        let le = (e[0] * e[0] + e[1] * e[1]).sqrt();
+        le == 0.0 || (e[0] * (v[1] - a[1]) - e[1] * (v[0] - a[0])) >= -tol * le
+    })
+}
+
+/// Sorts and merges intervals in place.
+fn merge_intervals(iv: &mut Vec<(f64, f64)>) {
+    iv.sort_unstable_by(|x, y| x.0.total_cmp(&y.0));
+    let mut out: Vec<(f64, f64)> = Vec::with_capacity(iv.len());
+    for &(s, e) in iv.iter() {
+        match out.last_mut() {
+            Some(l) if s <= l.1 => l.1 = l.1.max(e),
+            _ => out.push((s, e)),
+        }
+    }
+    *iv = out;
+}
+
+/// `∫ x dy − y dx` (relative to `c`) over the parts of segment `a → b` that lie in `keep`
+/// (all of it when `None`) and in none of `drop` (both merged interval lists).
+fn edge_integral(a: &P2, b: &P2, c: &P2, keep: Option<&[(f64, f64)]>, drop: &[(f64, f64)]) -> f64 {
+    let lerp = |s: f64| [a[0] + s * (b[0] - a[0]) - c[0], a[1] + s * (b[1] - a[1]) - c[1]];
+    let seg = |s: f64, e: f64| {
+        if e > s {
+            let (pa, pb) = (lerp(s), lerp(e));
+            pa[0] * pb[1] - pa[1] * pb[0]
+        } else {
+            0.0
+        }
+    };
+    let full = [(0.0, 1.0)];
+    let keep = keep.unwrap_or(&full);
+    let mut total = 0.0;
+    for &(ks, ke) in keep {
+        // Walk the complement of `drop` inside [ks, ke].
+        let mut t = ks.max(0.0);
+        let end = ke.min(1.0);
+        for &(ds, de) in drop {
+            if de <= t {
+                continue;
+            }
+            if ds >= end {
+                break;
+            }
+            total += seg(t, ds.min(end));
+            t = t.max(de);
+            if t >= end {
+                break;
+            }
+        }
+        if t < end {
+            total += seg(t, end);
+        }
+    }
+    total
+}
+
+/// Exact (up to rounding) area of the union of convex counter-clockwise polygons.
+///
+/// Method: by Green's theorem the union's area is `½∮ x dy − y dx` over its boundary, and
+/// that boundary is made of the portions of the polygons' edges that lie in no *other*
+/// polygon. For each edge, every other polygon whose bounding box meets it is clipped
+/// against it (Cyrus–Beck) to the parameter interval it covers; the uncovered parts
+/// contribute. An edge lying on another polygon's edge line (within
+/// [`UNION_COLLINEAR_REL`] of the input extent) is decided by a tie rule: polygons on the
+/// *same* side (same edge direction) overlap there, and only the lower-indexed one keeps
+/// the shared boundary; polygons on *opposite* sides abut there, and the shared part is
+/// interior (both contributions would cancel anyway). Polygons with fewer than 3 vertices
+/// or zero area are ignored.
+///
+/// Polygons inside one of the largest others are dropped first ([`Prepared::pruned`]).
+/// Cost: `O(Σ_P |P| · Σ_{Q meets P} |Q|)` over the remaining polygons — quadratic in the
+/// number of mutually overlapping polygons, linear when few overlap.
+pub fn union_area(polys: &[Vec<P2>]) -> f64 {
+    let u = Prepared::pruned(polys);
+    match u.polys.len() {
+        0 => return 0.0,
+        1 => return polygon_area(u.polys[0]),
+        _ => {}
+    }
+    let ((lo, hi), extent) = u.extent(None);
+    let tol = UNION_COLLINEAR_REL * extent;
+    // Integrate relative to the centre of the input's box (area is translation invariant).
+    let c = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
+    let mut total = 0.0;
+    let mut iv: Vec<(f64, f64)> = Vec::new();
+    for (i, p) in u.polys.iter().enumerate() {
+        let n = p.len();
+        for k in 0..n {
+            let (a, b) = (p[k], p[(k + 1) % n]);
+            iv.clear();
+            u.cover(&a, &b, Some(i), |j| j < i, tol, &mut iv);
+            merge_intervals(&mut iv);
+            total += edge_integral(&a, &b, &c, None, &iv);
+        }
+    }
+    0.5 * total
+}
+
+/// `area(∪U ∪ ∪V) − area(∪U)`: what the polygons `v` add to the union of the polygons `u`.
+///
+/// Only the parts of the boundary that change are integrated: the edges of `V` outside
+/// `U` (and outside the other `V`), minus the parts of `∂(∪U)` that `V` covers. `U` may
+/// be restricted to the polygons whose boxes meet `V`'s (the others cannot contribute),
+/// which makes this local. Ties as in [`union_area`] with the `U` polygons ordered
+/// before the `V` polygons, so `area(∪U) + delta` equals `union_area` of `U ++ V` up to
+/// rounding.
+pub fn union_area_delta(u: &[Vec<P2>], v: &[Vec<P2>]) -> f64 {
+    let (u, v) = (Prepared::pruned(u), Prepared::new(v));
+    if v.polys.is_empty() {
+        return 0.0;
+    }
+    let ((lo, hi), extent) = u.extent(Some(&v));
+    let tol = UNION_COLLINEAR_REL * extent;
+    let c = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
+    let mut total = 0.0;
+    let (mut iv, mut jv) = (Vec::new(), Vec::new());
+    // Edges of V not covered by U (U wins same-side ties) nor by the other V.
+    for (i, p) in v.polys.iter().enumerate() {
+        let n = p.len();
+        for k in 0..n {
+            let (a, b) = (p[k], p[(k + 1) % n]);
+            iv.clear();
+            u.cover(&a, &b, None, |_| true, tol, &mut iv);
+            v.cover(&a, &b, Some(i), |j| j < i, tol, &mut iv);
+            merge_intervals(&mut iv);
+            total += edge_integral(&a, &b, &c, None, &iv);
+        }
+    }
+    // Minus the boundary of ∪U that V covers (V loses same-side ties against U).
+    for (i, p) in u.polys.iter().enumerate() {
+        let n = p.len();
+        for k in 0..n {
+            let (a, b) = (p[k], p[(k + 1) % n]);
+            jv.clear();
+            v.cover(&a, &b, None, |_| false, tol, &mut jv);
+            if jv.is_empty() {
+                continue;
+            }
+            merge_intervals(&mut jv);
+            iv.clear();
+            u.cover(&a, &b, Some(i), |j| j < i, tol, &mut iv);
+            merge_intervals(&mut iv);
+            total -= edge_integral(&a, &b, &c, Some(&jv), &iv);
+        }
+    }
+    0.5 * total
+}
+
+/// The parameter interval of segment `a → b` inside convex CCW polygon `q`, or `None`.
+/// `wins_tie`: whether `q` keeps a boundary shared on the same side (see [`union_area`]).
+fn covered(a: &P2, b: &P2, q: &[P2], wins_tie: bool, tol: f64) -> Option<(f64, f64)> {
+    let d = [b[0] - a[0], b[1] - a[1]];
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    let m = q.len();
+    for k in 0..m {
+        let (q0, q1) = (q[k], q[(k + 1) % m]);
+        let e = [q1[0] - q0[0], q1[1] - q0[1]];
+        let le = (e[0] * e[0] + e[1] * e[1]).sqrt();
+        if le == 0.0 {
+            continue;
+        }
+        // Signed distances of a and b from the edge line, positive inside (left).
+        let f0 = (e[0] * (a[1] - q0[1]) - e[1] * (a[0] - q0[0])) / le;
+        let f1 = (e[0] * (b[1] - q0[1]) - e[1] * (b[0] - q0[0])) / le;
+        if f0.abs() <= tol && f1.abs() <= tol {
+            let same = e[0] * d[0] + e[1] * d[1] > 0.0;
+            if same && !wins_tie {
+                return None;
+            }
+            continue;
+        }
+        if f0 <= 0.0 && f1 <= 0.0 {
+            return None;
+        }
+        if f0 < 0.0 {
+            t0 = t0.max(f0 / (f0 - f1));
+        } else if f1 < 0.0 {
+            t1 = t1.min(f0 / (f0 - f1));
+        }
+        if t0 >= t1 {
+            return None;
+        }
+    }
+    Some((t0, t1))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rect(x0: f64, y0: f64, x1: f64, y1: f64) -> Vec<P2> {
+        vec![[x0, y0], [x1, y0], [x1, y1], [x0, y1]]
+    }
+
+    #[test]
+    fn frame_is_canonical_and_orthonormal() {
+        let f = Frame::new([0.0, 0.0, -2.0], [1.0, 2.0, 3.0]).unwrap();
+        assert_eq!(f.n, [0.0, 0.0, 1.0]);
+        let g = Frame::new([0.0, 0.0, 5.0], [1.0, 2.0, 3.0]).unwrap();
+        assert_eq!(f, g);
+        let h = Frame::new([0.3, -0.4, 0.2], [0.0; 3]).unwrap();
+        assert!(dot(&h.u, &h.v).abs() < 1e-15 && dot(&h.u, &h.n).abs() < 1e-15);
+        assert!((norm(&h.u) - 1.0).abs() < 1e-15 && (norm(&h.v) - 1.0).abs() < 1e-15);
+        assert!(Frame::new([0.0; 3], [0.0; 3]).is_none());
+    }
+
+    #[test]
+    fn hull_and_bbox() {
+        let pts = vec![[0.0, 0.0], [2.0, 0.0], [1.0, 1.0], [2.0, 2.0], [0.0, 2.0], [1.0, 0.0]];
+        let h = hull2(pts.clone());
+        assert_eq!(h.len(), 4);
+        assert_eq!(polygon_area(&h), 4.0);
+        assert_eq!(bbox_area(&pts), 4.0);
+        let tri = hull2(vec![[0.0, 0.0], [2.0, 0.0], [0.0, 2.0]]);
+        assert_eq!(polygon_area(&tri), 2.0);
+        assert_eq!(bbox_area(&tri), 4.0);
+    }
+
+    #[test]
+    fn union_of_overlapping_abutting_and_identical_rectangles() {
+        // Two overlapping unit-offset squares: 4 + 4 - 1 = 7.
+        let a = union_area(&[rect(0.0, 0.0, 2.0, 2.0), rect(1.0, 1.0, 3.0, 3.0)]);
+        assert!((a - 7.0).abs() < 1e-12, "{a}");
+        // Abutting (shared edge, opposite sides): 2 + 2.
+        let a = union_area(&[rect(0.0, 0.0, 1.0, 2.0), rect(1.0, 0.0, 2.0, 2.0)]);
+        assert!((a - 4.0).abs() < 1e-12, "{a}");
+        // Identical and nested.
+        let a = union_area(&[
+            rect(0.0, 0.0, 1.0, 1.0),
+            rect(0.0, 0.0, 1.0, 1.0),
+            rect(0.2, 0.2, 0.5, 0.5),
+        ]);
+        assert!((a - 1.0).abs() < 1e-12, "{a}");
+        // Same-side overlap along a shared edge line: [0,2]x[0,1] and [1,3]x[0,1] -> 3.
+        let a = union_area(&[rect(0.0, 0.0, 2.0, 1.0), rect(1.0, 0.0, 3.0, 1.0)]);
+        assert!((a - 3.0).abs() < 1e-12, "{a}");
+        // Disjoint.
+        let a = union_area(&[rect(0.0, 0.0, 1.0, 1.0), rect(5.0, 5.0, 6.0, 7.0)]);
+        assert!((a - 3.0).abs() < 1e-12, "{a}");
+    }
+
+    #[test]
+    fn union_matches_grid_sampling_on_random_triangles() {
+        let mut s = 12345u64;
+        let mut r = || {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for _ in 0..5 {
+            let polys: Vec<Vec<P2>> = (0..12)
+                .map(|_| hull2((0..5).map(|_| [r() * 10.0, r() * 10.0]).collect()))
+                .collect();
+            let exact = union_area(&polys);
+            // Midpoint sampling on a fine grid.
+            let n = 800;
+            let mut inside = 0usize;
+            for i in 0..n {
+                for j in 0..n {
+                    let p = [(i as f64 + 0.5) * 10.0 / n as f64, (j as f64 + 0.5) * 10.0 / n as f64];
+                    if polys
+                        .iter()
+                        .any(|q| (0..q.len()).all(|k| cross2(&q[k], &q[(k + 1) % q.len()], &p) >= 0.0))
+                    {
+                        inside += 1;
+                    }
+                }
+            }
+            let sampled = inside as f64 * 100.0 / (n * n) as f64;
+            assert!((exact - sampled).abs() < 0.05, "exact {exact} sampled {sampled}");
+            // Never more than the sum, never less than the largest.
+            let sum: f64 = polys.iter().map(|p| polygon_area(p)).sum();
+            let max = polys.iter().map(|p| polygon_area(p)).fold(0.0, f64::max);
+            assert!(exact <= sum + 1e-9 && exact >= max - 1e-9);
+            // Incremental: the area of U plus what V adds equals the union of both.
+            let (u, v) = polys.split_at(7);
+            let inc = union_area(u) + union_area_delta(u, v);
+            assert!((inc - exact).abs() < 1e-9 * exact, "incremental {inc} exact {exact}");
+        }
+    }
+
+    #[test]
+    fn delta_handles_shared_edges_and_duplicates() {
+        let u = vec![rect(0.0, 0.0, 1.0, 1.0), rect(1.0, 0.0, 2.0, 1.0)];
+        // Abutting, overlapping, identical and contained additions.
+        for (v, want) in [
+            (vec![rect(2.0, 0.0, 3.0, 1.0)], 1.0),
+            (vec![rect(1.5, 0.0, 2.5, 1.0)], 0.5),
+            (vec![rect(0.0, 0.0, 1.0, 1.0)], 0.0),
+            (vec![rect(0.2, 0.2, 0.4, 0.4), rect(0.0, 1.0, 2.0, 2.0)], 2.0),
+        ] {
+            let d = union_area_delta(&u, &v);
+            assert!((d - want).abs() < 1e-12, "{d} vs {want}");
+        }
+    }
+}

@@ -1,0 +1,116 @@
+//! `weight_curve.png`: the weight of each collapse, in order (log scale when all are > 0).
+//!
+//! Text needs a font: plotters is built without system font support (no system libraries),
+//! so a TrueType font is loaded from `PORTALFIND_FONT` or a few usual places (DejaVu Sans,
+//! Liberation Sans, Arial). Without one, the chart is drawn without captions and labels.
+
+use crate::decimate::Step;
+use anyhow::{Result, anyhow};
+use plotters::prelude::*;
+use std::path::Path;
+use std::sync::OnceLock;
+
+const FONT_CANDIDATES: [&str; 6] = [
+    "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
+    "/usr/share/fonts/TTF/DejaVuSans.ttf",
+    "/usr/share/fonts/dejavu/DejaVuSans.ttf",
+    "/usr/share/fonts/truetype/liberation/LiberationSans-Regular.ttf",
+    "/Library/Fonts/Arial.ttf",
+    "C:\\Windows\\Fonts\\arial.ttf",
+];
+
+/// Registers a font as "sans-serif" once; returns whether one is available.
+fn font_available() -> bool {
+    static FONT: OnceLock<bool> = OnceLock::new();
+    *FONT.get_or_init(|| {
+        let env = std::env::var("PORTALFIND_FONT").ok();
+        let paths = env.iter().map(|s| s.as_str()).chain(FONT_CANDIDATES);
+        for p in paths {
+            if let Ok(bytes) = std::fs::read(p) {
+                let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
+                if plotters::style::register_font("sans-serif", FontStyle::Normal, bytes).is_ok() {
+                    return true;
+                }
+            }
+        }
+        false
+    })
+}
+
+fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
+    anyhow!("plotting failed: {e:?}")
+}
+
+/// Draws the curve into `path` (PNG, 1000 × 600).
+pub fn weight_curve(path: &Path, steps: &[Step], title: &str, threshold: Option<f64>) -> Result<()> {
+    let text = font_available();
+    let root = BitMapBackend::new(path, (1000, 600)).into_drawing_area();
+    root.fill(&WHITE).map_err(err)?;
+    let n = steps.len().max(1) as f64;
+    let mut lo = f64::INFINITY;
+    let mut hi = f64::NEG_INFINITY;
+    for s in steps {
+        lo = lo.min(s.weight);
+        hi = hi.max(s.weight);
+    }
+    if let Some(t) = threshold.filter(|t| t.is_finite()) {
+        lo = lo.min(t);
+        hi = hi.max(t);
+    }
+    if !lo.is_finite() || !hi.is_finite() {
+        (lo, hi) = (1.0, 10.0);
+    }
+    let points: Vec<(f64, f64)> = steps
+        .iter()
+        .enumerate()
+        .map(|(i, s)| ((i + 1) as f64, s.weight))
+        .collect();
+    let mut b = ChartBuilder::on(&root);
+    b.margin(20);
+    if text {
+        b.caption(title, ("sans-serif", 22))
+            .x_label_area_size(45)
+            .y_label_area_size(80);
+    }
+    if lo > 0.0 {
+        let (ylo, yhi) = if hi > lo {
+            (lo / 1.2, hi * 1.2)
+        } else {
+            (lo / 2.0, lo * 2.0)
+        };
+        let mut chart = b.build_cartesian_2d(0.0..n, (ylo..yhi).log_scale()).map_err(err)?;
+        if text {
+            chart
+                .configure_mesh()
+                .x_desc("collapse")
+                .y_desc("weight (log)")
+                .draw()
+                .map_err(err)?;
+        }
+        chart.draw_series(LineSeries::new(points, &BLUE)).map_err(err)?;
+        if let Some(t) = threshold.filter(|t| *t > 0.0 && t.is_finite()) {
+            chart
+                .draw_series(LineSeries::new([(0.0, t), (n, t)], RED.stroke_width(1)))
+                .map_err(err)?;
+        }
+    } else {
+        let (ylo, yhi) = if hi > lo { (lo, hi * 1.05) } else { (lo - 1.0, lo + 1.0) };
+        let mut chart = b.build_cartesian_2d(0.0..n, ylo..yhi).map_err(err)?;
+        if text {
+            chart
+                .configure_mesh()
+                .x_desc("collapse")
+                .y_desc("weight")
+                .draw()
+                .map_err(err)?;
+        }
+        chart.draw_series(LineSeries::new(points, &BLUE)).map_err(err)?;
+        if let Some(t) = threshold.filter(|t| t.is_finite()) {
+            chart
+                .draw_series(LineSeries::new([(0.0, t), (n, t)], RED.stroke_width(1)))
+                .map_err(err)?;
+        }
+    }
+    root.present().map_err(err)?;
+    Ok(())
+}
