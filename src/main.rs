@@ -44,6 +44,10 @@ enum Cmd {
         /// Skip the invariant check (convex cells, coverage, volumes, no crossing).
         #[arg(long)]
         no_validate: bool,
+        /// If the model leaks, write the first leak's path here, one `x y z` point per line
+        /// (qbsp's pointfile format: load it in TrenchBroom to see where the model is open).
+        #[arg(long)]
+        pointfile: Option<PathBuf>,
     },
     /// Generate test models (OBJ or .mesh by the output's extension).
     Gen {
@@ -133,7 +137,11 @@ fn main() -> Result<()> {
     match cli.cmd {
         Cmd::Info { model } => info(&model),
         Cmd::Tetra { model, no_validate } => tetra(&model, !no_validate),
-        Cmd::Complex { model, no_validate } => complex(&model, !no_validate),
+        Cmd::Complex {
+            model,
+            no_validate,
+            pointfile,
+        } => complex(&model, !no_validate, pointfile.as_deref()),
         Cmd::Gen {
             what: GenCmd::Rooms { nx, ny, tess, out },
         } => gen_rooms(nx, ny, tess, &out),
@@ -218,7 +226,7 @@ fn tetra(path: &std::path::Path, validate: bool) -> Result<()> {
     Ok(())
 }
 
-fn complex(path: &std::path::Path, validate: bool) -> Result<()> {
+fn complex(path: &std::path::Path, validate: bool, pointfile: Option<&std::path::Path>) -> Result<()> {
     let m = load(path)?;
     let t0 = Instant::now();
     let t =
@@ -240,7 +248,10 @@ fn complex(path: &std::path::Path, validate: bool) -> Result<()> {
             s.polygons_conforming.to_string(),
         ),
         ("polygons clipped against cells", s.polygons_clipped.to_string()),
-        ("cells split", s.cells_split.to_string()),
+        (
+            "cells split",
+            format!("{} ({} by sealing)", s.cells_split, s.cells_sealed),
+        ),
         ("splits refused (sliver)", s.splits_refused.to_string()),
         ("fragments left unplaced", s.unplaced_fragments.to_string()),
         ("cells after splitting", s.cells_after_split.to_string()),
@@ -277,6 +288,16 @@ fn complex(path: &std::path::Path, validate: bool) -> Result<()> {
             l.hull_point[1],
             l.hull_point[2]
         );
+    }
+    if let (Some(pf), Some(leak)) = (pointfile, cx.leaks.first()) {
+        let text: String = cx
+            .leak_pointfile(leak)
+            .iter()
+            .map(|p| format!("{} {} {}\n", p[0], p[1], p[2]))
+            .collect();
+        portalfind::model::write::write_atomic(pf, text.as_bytes())
+            .with_context(|| format!("cannot write {}", pf.display()))?;
+        println!("wrote the leak path to {}", pf.display());
     }
     if validate {
         let t1 = Instant::now();
