@@ -164,6 +164,65 @@ fn main() -> Result<()> {
     }
 }
 
+/// A progress bar that stays hidden until its stage has run for a second.
+struct LazyBar {
+    bar: indicatif::ProgressBar,
+    start: Instant,
+    stage: &'static str,
+    shown: bool,
+}
+
+impl LazyBar {
+    fn new() -> Self {
+        let bar = indicatif::ProgressBar::with_draw_target(None, indicatif::ProgressDrawTarget::hidden());
+        bar.set_style(
+            indicatif::ProgressStyle::with_template("{msg:>28} {bar:40} {pos}/{len} [{elapsed}]")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        LazyBar {
+            bar,
+            start: Instant::now(),
+            stage: "",
+            shown: false,
+        }
+    }
+
+    fn update(&mut self, stage: &'static str, done: usize, total: usize) {
+        if stage != self.stage {
+            self.stage = stage;
+            self.start = Instant::now();
+            self.bar.set_message(stage);
+        }
+        if !self.shown && self.start.elapsed().as_secs_f64() > 1.0 {
+            self.shown = true;
+            self.bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+        }
+        self.bar.set_length(total as u64);
+        self.bar.set_position(done as u64);
+    }
+}
+
+impl Drop for LazyBar {
+    fn drop(&mut self) {
+        self.bar.finish_and_clear();
+    }
+}
+
+/// Tetrahedralization and cell complex with lazy progress bars.
+fn build_complex(
+    m: &portalfind::model::Model,
+    path: &std::path::Path,
+) -> Result<(Tetrahedralization, portalfind::complex::CellComplex, f64)> {
+    let mut bar = LazyBar::new();
+    let t0 = Instant::now();
+    let t =
+        Tetrahedralization::build_with_progress(&m.vertices, 0x5eed, &mut |d, n| bar.update("tetrahedralizing", d, n))
+            .with_context(|| format!("cannot tetrahedralize {}", path.display()))?;
+    let tt = t0.elapsed().as_secs_f64();
+    let cx = portalfind::complex::CellComplex::build_with_progress(m, &t, &mut |s, d, n| bar.update(s, d, n));
+    Ok((t, cx, tt))
+}
+
 fn load(path: &std::path::Path) -> Result<portalfind::model::Model> {
     let t0 = Instant::now();
     let m = portalfind::model::load_model(path).with_context(|| format!("cannot load model {}", path.display()))?;
@@ -228,11 +287,7 @@ fn tetra(path: &std::path::Path, validate: bool) -> Result<()> {
 
 fn complex(path: &std::path::Path, validate: bool, pointfile: Option<&std::path::Path>) -> Result<()> {
     let m = load(path)?;
-    let t0 = Instant::now();
-    let t =
-        Tetrahedralization::build(&m.vertices).with_context(|| format!("cannot tetrahedralize {}", path.display()))?;
-    let tt = t0.elapsed().as_secs_f64();
-    let cx = portalfind::complex::CellComplex::build(&m, &t);
+    let (_t, cx, tt) = build_complex(&m, path)?;
     let s = &cx.stats;
     println!("{:<44}{:>10}", "stage", "seconds");
     println!("{:<44}{:>10.3}", "delaunay tetrahedralization", tt);
@@ -379,11 +434,8 @@ fn run_decimation(
     let t0 = Instant::now();
     let m = load(path)?;
     let mut stages: Vec<(String, f64)> = vec![("load model".into(), t0.elapsed().as_secs_f64())];
-    let t1 = Instant::now();
-    let t =
-        Tetrahedralization::build(&m.vertices).with_context(|| format!("cannot tetrahedralize {}", path.display()))?;
-    stages.push(("delaunay tetrahedralization".into(), t1.elapsed().as_secs_f64()));
-    let cx = portalfind::complex::CellComplex::build(&m, &t);
+    let (_t, cx, tt) = build_complex(&m, path)?;
+    stages.push(("delaunay tetrahedralization".into(), tt));
     stages.extend(cx.stats.timings.iter().cloned());
     let settings = Settings {
         heuristic,

@@ -15,6 +15,15 @@ impl CellComplex {
     /// Builds the complex of `model` over its tetrahedralization `tet` (which must be of
     /// `model.vertices`, in order): splitting, portal graph and exterior removal.
     pub fn build(model: &Model, tet: &Tetrahedralization) -> CellComplex {
+        Self::build_with_progress(model, tet, &mut |_, _, _| {})
+    }
+
+    /// [`CellComplex::build`], reporting `(stage, done, total)` during the long loops.
+    pub fn build_with_progress(
+        model: &Model,
+        tet: &Tetrahedralization,
+        progress: &mut dyn FnMut(&'static str, usize, usize),
+    ) -> CellComplex {
         let t0 = Instant::now();
         let mut cx = CellComplex::from_tets(model, tet);
         cx.stats.polygons = model.polygons.len();
@@ -54,7 +63,10 @@ impl CellComplex {
 
         let t2 = Instant::now();
         let mut placer = Placer::new(tet, cx.cells.len());
-        for &p in &pending {
+        for (i, &p) in pending.iter().enumerate() {
+            if i % 64 == 0 {
+                progress("splitting", i, pending.len());
+            }
             let (s, flipped) = of[p.idx()];
             cx.place_polygon(model, tet, &mut placer, p, &supports[s], flipped);
         }

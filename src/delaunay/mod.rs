@@ -133,6 +133,16 @@ impl Tetrahedralization {
     /// The result does not depend on the seed (ties are broken symbolically); only the
     /// running time does.
     pub fn build_with_seed(points: &[P3], seed: u64) -> Result<Self, DelaunayError> {
+        Self::build_with_progress(points, seed, &mut |_, _| {})
+    }
+
+    /// [`Tetrahedralization::build_with_seed`], reporting `(inserted, total)` every 16384
+    /// insertions.
+    pub fn build_with_progress(
+        points: &[P3],
+        seed: u64,
+        progress: &mut dyn FnMut(usize, usize),
+    ) -> Result<Self, DelaunayError> {
         let n = points.len();
         if n >= DEAD as usize {
             return Err(DelaunayError::TooMany(n));
@@ -184,6 +194,9 @@ impl Tetrahedralization {
         let mut b = Builder::new(points, &rank, lattice.as_ref(), seed, stats);
         let start = b.initial(&ins)?;
         for (k, &p) in ins.iter().enumerate() {
+            if k % 16384 == 0 {
+                progress(k, ins.len());
+            }
             if start.contains(&k) {
                 continue;
             }
