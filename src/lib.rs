@@ -18,6 +18,7 @@ pub mod model;
 pub mod output;
 pub mod predicates;
 pub mod scenes;
+pub mod thesis_models;
 pub mod tolerances;
 
 pub use ids::{CellId, PolygonId, PortalId, TetId, VertexId};
