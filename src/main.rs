@@ -93,6 +93,17 @@ enum Cmd {
 
 #[derive(Subcommand)]
 enum GenCmd {
+    /// Reconstructions of the thesis's test models (section 4.3) with ground-truth rooms
+    /// and doorways: writes DIR/NAME.obj and DIR/NAME.truth.json. NAME is one of
+    /// four_room_optimized, four_room_tessellated, four_room_distorted, caverns,
+    /// caverns_rotated, noisy, or all.
+    Thesis {
+        /// Model name, or `all`.
+        name: String,
+        /// Output directory.
+        #[arg(long, default_value = "models/thesis")]
+        out: PathBuf,
+    },
     /// A building of nx × ny rooms (4 × 4 × 3 m, walls 0.5 m) joined by door corridors,
     /// every surface tessellated into quads; about 640 triangles per room at --tess 8.
     /// Scales to a million triangles for benchmarks.
@@ -132,8 +143,19 @@ enum BenchCmd {
     One { kind: String, n: usize },
 }
 
-fn main() -> Result<()> {
-    let cli = Cli::parse();
+/// Errors are printed as their context chain (file, line, element, fix), without a
+/// backtrace even when `RUST_BACKTRACE` is set, and exit with status 1.
+fn main() -> std::process::ExitCode {
+    match run(Cli::parse()) {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
     match cli.cmd {
         Cmd::Info { model } => info(&model),
         Cmd::Tetra { model, no_validate } => tetra(&model, !no_validate),
@@ -145,6 +167,9 @@ fn main() -> Result<()> {
         Cmd::Gen {
             what: GenCmd::Rooms { nx, ny, tess, out },
         } => gen_rooms(nx, ny, tess, &out),
+        Cmd::Gen {
+            what: GenCmd::Thesis { name, out },
+        } => gen_thesis(&name, &out),
         Cmd::Bench { what } => match what {
             BenchCmd::One { kind, n } => {
                 let row = bench::run_one(&kind, n, true).with_context(|| format!("unknown input kind {kind:?}"))?;
@@ -366,6 +391,35 @@ fn complex(path: &std::path::Path, validate: bool, pointfile: Option<&std::path:
             ),
             Err(e) => bail!("complex validation failed: {e}"),
         }
+    }
+    Ok(())
+}
+
+fn gen_thesis(name: &str, out: &std::path::Path) -> Result<()> {
+    use portalfind::thesis_models;
+    let models = if name == "all" {
+        thesis_models::all()
+    } else {
+        vec![thesis_models::by_name(name).with_context(|| {
+            format!(
+                "unknown thesis model {name:?}; use one of {:?} or all",
+                thesis_models::NAMES
+            )
+        })?]
+    };
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    for m in &models {
+        thesis_models::write(m, out).with_context(|| format!("cannot write {} into {}", m.name, out.display()))?;
+        let tris: usize = m.soup.polygons.iter().map(|p| p.len() - 2).sum();
+        println!(
+            "wrote {}/{}.obj and .truth.json: {} vertices, {} triangles, {} rooms, {} doorways",
+            out.display(),
+            m.name,
+            m.soup.vertices.len(),
+            tris,
+            m.truth.rooms.len(),
+            m.truth.doorways.len()
+        );
     }
     Ok(())
 }

@@ -21,7 +21,8 @@ pub enum ModelError {
     )]
     Io {
         path: PathBuf,
-        #[source]
+        // Not marked #[source]: the message already includes it, and error chains
+        // (anyhow's `{:#}`) would print it twice.
         source: std::io::Error,
     },
 
