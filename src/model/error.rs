@@ -16,14 +16,14 @@ fn loc(file: &str, line: &Option<usize>) -> String {
 pub enum ModelError {
     /// The file is missing or unreadable.
     #[error(
-        "cannot read model file `{}`: {source}; check that the path exists and is readable",
+        "cannot read model file `{}`: {error}; check that the path exists and is readable",
         path.display()
     )]
     Io {
         path: PathBuf,
-        // Not marked #[source]: the message already includes it, and error chains
-        // (anyhow's `{:#}`) would print it twice.
-        source: std::io::Error,
+        /// The operating system's error (in the message, so not a `source`: error chains
+        /// would print it twice).
+        error: std::io::Error,
     },
 
     /// The extension is neither `.obj` nor `.mesh`.

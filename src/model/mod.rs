@@ -172,9 +172,9 @@ pub fn load_model(path: &Path) -> Result<Model, ModelError> {
             ext,
         });
     }
-    let bytes = std::fs::read(path).map_err(|source| ModelError::Io {
+    let bytes = std::fs::read(path).map_err(|error| ModelError::Io {
         path: path.to_path_buf(),
-        source,
+        error,
     })?;
     let text = String::from_utf8_lossy(&bytes);
     let file = path.display().to_string();
