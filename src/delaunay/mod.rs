@@ -156,14 +156,19 @@ impl Tetrahedralization {
         }
         // Lexicographic order gives the perturbation ranks and finds exact duplicates.
         let t_start = std::time::Instant::now();
-        let mut order: Vec<u32> = (0..n as u32).collect();
-        order.sort_unstable_by(|&a, &b| {
-            let (p, q) = (&points[a as usize], &points[b as usize]);
-            p[0].total_cmp(&q[0])
-                .then(p[1].total_cmp(&q[1]))
-                .then(p[2].total_cmp(&q[2]))
-                .then(a.cmp(&b))
-        });
+        // Sort by order-preserving integer keys (the same order as `f64::total_cmp`):
+        // sequential memory instead of a comparator chasing point indices.
+        let tkey = |x: f64| {
+            let b = x.to_bits();
+            if b >> 63 == 1 { !b } else { b | (1 << 63) }
+        };
+        let mut keyed: Vec<([u64; 3], u32)> = points
+            .iter()
+            .enumerate()
+            .map(|(i, p)| ([tkey(p[0]), tkey(p[1]), tkey(p[2])], i as u32))
+            .collect();
+        keyed.sort_unstable();
+        let order: Vec<u32> = keyed.into_iter().map(|k| k.1).collect();
         let mut rank = vec![0u32; n];
         let mut representative: Vec<u32> = (0..n as u32).collect();
         let mut unique: Vec<u32> = Vec::with_capacity(n);
