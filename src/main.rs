@@ -114,7 +114,7 @@ enum GenCmd {
         /// Rooms along y.
         #[arg(long, default_value_t = 2)]
         ny: usize,
-        /// Quads per 4 m of wall (rounded down to a multiple of 4).
+        /// Quads per 4 m of wall (rounded down to a multiple of 8, at least 8).
         #[arg(long, default_value_t = 8)]
         tess: usize,
         /// Output file (.obj or .mesh).
@@ -378,6 +378,15 @@ fn complex(path: &std::path::Path, validate: bool, pointfile: Option<&std::path:
         portalfind::model::write::write_atomic(pf, text.as_bytes())
             .with_context(|| format!("cannot write {}", pf.display()))?;
         println!("wrote the leak path to {}", pf.display());
+    } else if let Some(pf) = pointfile
+        && pf.exists()
+    {
+        // As qbsp does: no leak, so a pointfile from an earlier run must not linger.
+        std::fs::remove_file(pf).with_context(|| format!("cannot remove stale {}", pf.display()))?;
+        println!("no leak: removed the stale pointfile {}", pf.display());
+    }
+    if cx.stats.active_cells == 0 {
+        report_leaks_and_orientation(&cx);
     }
     if validate {
         let t1 = Instant::now();
@@ -426,6 +435,9 @@ fn gen_thesis(name: &str, out: &std::path::Path) -> Result<()> {
 
 fn gen_rooms(nx: usize, ny: usize, tess: usize, out: &std::path::Path) -> Result<()> {
     use portalfind::model::write;
+    if nx == 0 || ny == 0 || nx.saturating_mul(ny) > 1_000_000 {
+        bail!("--nx and --ny must be at least 1 and give at most a million rooms (got {nx} × {ny})");
+    }
     let (s, centres) = portalfind::scenes::room_grid(nx, ny, tess);
     let text = match out.extension().and_then(|e| e.to_str()) {
         Some("obj") => write::obj_text(
@@ -485,6 +497,8 @@ fn run_decimation(
     out: &std::path::Path,
 ) -> Result<()> {
     use portalfind::decimate::{Decimation, QueueMode, Settings};
+    // Fail before the work if the output directory cannot be created.
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create output directory {}", out.display()))?;
     let t0 = Instant::now();
     let m = load(path)?;
     let mut stages: Vec<(String, f64)> = vec![("load model".into(), t0.elapsed().as_secs_f64())];
@@ -551,7 +565,27 @@ fn run_decimation(
     for f in files {
         println!("wrote {}", f.display());
     }
+    report_leaks_and_orientation(&cx);
     Ok(())
+}
+
+/// Warnings a user must not miss: leaks, and a model whose every region was removed
+/// (typically polygons facing away from free space, the opposite of our convention).
+fn report_leaks_and_orientation(cx: &portalfind::complex::CellComplex) {
+    for (i, l) in cx.leaks.iter().enumerate() {
+        eprintln!(
+            "warning: leak {i}: the region of {} cells reaches the outside near ({:.3}, {:.3}, {:.3}); \
+             write its path with `portalfind complex MODEL --pointfile FILE`",
+            l.region_cells, l.hull_point[0], l.hull_point[1], l.hull_point[2]
+        );
+    }
+    if cx.stats.active_cells == 0 {
+        eprintln!(
+            "warning: no region faces any polygon, so every cell was removed as exterior; \
+             polygons must be counter-clockwise seen from free space (the room side) — \
+             if this model's faces point outwards, reverse their winding"
+        );
+    }
 }
 
 fn locate(dir: &std::path::Path, points: &std::path::Path) -> Result<()> {

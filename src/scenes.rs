@@ -119,10 +119,13 @@ impl Soup {
 
 /// A scalable test building: `nx × ny` rooms (4 × 4 × 3, walls 0.5 thick) in a grid, each
 /// joined to its +x and +y neighbours by a door corridor (1 wide, 2 high), every surface
-/// tessellated into quads of about `4 / tess` units. Returns the soup and one sample point
+/// tessellated into quads of `4 / tess` units (`tess` is rounded down to a multiple of 8,
+/// at least 8, so that door edges fall on grid lines). Returns the soup and one sample point
 /// per room (the room centres), row-major.
 pub fn room_grid(nx: usize, ny: usize, tess: usize) -> (Soup, Vec<P3>) {
-    let tess = tess.max(4) / 4 * 4; // a multiple of 4 so the door edges fall on grid lines
+    // A multiple of 8 (at least 8), so the door's edges (1.5 and 2.5 m across, 2 m up) fall
+    // on grid lines.
+    let tess = (tess / 8).max(1) * 8;
     let (w, h, gap) = (4.0, 3.0, 0.5);
     let pitch = w + gap;
     let mut s = Soup::default();

@@ -390,7 +390,10 @@ pub fn read_points(path: &Path) -> Result<Vec<P3>> {
         let first = std::mem::replace(&mut header_allowed, false);
         match nums {
             Some(v) if v.len() == 3 && v.iter().all(|x| x.is_finite()) => out.push([v[0], v[1], v[2]]),
-            None if first => continue,
+            // A header row (names such as `x,y,z`), not a malformed first point.
+            None if first && f.len() == 3 && f.iter().all(|s| s.starts_with(|c: char| c.is_ascii_alphabetic())) => {
+                continue;
+            }
             _ => bail!("{}:{}: expected x,y,z, got {t:?}", path.display(), i + 1),
         }
     }
