@@ -557,7 +557,7 @@ fn run_decimation(
             "weights computed / re-weighs skipped",
             format!("{} / {}", s.weights_computed, s.reweighs_skipped),
         ),
-        ("stop", format!("{stop}: {:?}", dec.stop)),
+        ("stop rule / reason", format!("{stop} / {}", dec.stop)),
     ];
     for (k, v) in rows {
         println!("{k:<44}{v:>10}");

@@ -471,3 +471,17 @@ fn million_triangle_soup_scales() {
     assert_eq!(m.report.final_vertices, nu * nv);
     assert_eq!(m.report.open_edges, 0);
 }
+
+#[test]
+fn error_coordinates_out_of_range() {
+    use portalfind::model::{ModelError, from_soup};
+    let tet = vec![vec![0, 2, 1], vec![0, 1, 3], vec![0, 3, 2], vec![1, 2, 3]];
+    let scaled = |s: f64| vec![[0.0, 0.0, 0.0], [s, 0.0, 0.0], [0.0, s, 0.0], [0.0, 0.0, s]];
+    for s in [1e300, 1e20, 1e-50, 1e-12] {
+        let e = from_soup("t", scaled(s), tet.clone()).unwrap_err();
+        assert!(matches!(e, ModelError::CoordinateRange { .. }), "{s}: {e}");
+        assert!(e.to_string().contains("rescale"), "{e}");
+    }
+    assert!(from_soup("t", scaled(1e6), tet.clone()).is_ok());
+    assert!(from_soup("t", scaled(1e-6), tet).is_ok());
+}

@@ -149,6 +149,18 @@ pub enum StopReason {
     Exhausted,
 }
 
+impl fmt::Display for StopReason {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            StopReason::Threshold { threshold, next_weight } => {
+                write!(f, "lowest weight {next_weight} reached the threshold {threshold}")
+            }
+            StopReason::Cells { target } => write!(f, "{target} cells reached"),
+            StopReason::Exhausted => write!(f, "no pair left (one cell per connected region)"),
+        }
+    }
+}
+
 /// Decimation settings.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Settings {

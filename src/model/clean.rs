@@ -118,6 +118,16 @@ pub(crate) fn clean(name: &str, file: &str, soup: Soup) -> Result<Model, ModelEr
     }
     let (lo, hi) = bbox_of(vertices.iter().zip(&referenced).filter(|(_, r)| **r).map(|(p, _)| p));
     let diag = ((0..3).map(|k| (hi[k] - lo[k]) * (hi[k] - lo[k])).sum::<f64>()).sqrt();
+    // Exact predicates and tolerances relative to the model's size need the coordinates
+    // and their products to stay far from overflow and underflow.
+    let max_abs = (0..3).map(|k| lo[k].abs().max(hi[k].abs())).fold(0.0, f64::max);
+    if !(max_abs <= 1e15) || !(diag >= 1e-9) || !(diag.is_finite()) {
+        return Err(ModelError::CoordinateRange {
+            file: file.into(),
+            max_abs,
+            diag,
+        });
+    }
     let tolerances = Tolerances::for_scale(diag);
 
     // 2. Weld.

@@ -125,6 +125,20 @@ pub enum ModelError {
         /// `"coincident"`, `"collinear"` or `"coplanar"`.
         shape: &'static str,
     },
+
+    /// Coordinates too large or the model too small for the arithmetic.
+    #[error(
+        "{file}: coordinates out of range: largest |coordinate| {max_abs:e}, bounding-box diagonal \
+         {diag:e}; portalfind needs |coordinates| <= 1e15 and a diagonal >= 1e-9: rescale the model \
+         (e.g. to metres or game units)"
+    )]
+    CoordinateRange {
+        file: String,
+        /// Largest absolute coordinate of a referenced vertex.
+        max_abs: f64,
+        /// Bounding-box diagonal of the referenced vertices.
+        diag: f64,
+    },
 }
 
 impl ModelError {

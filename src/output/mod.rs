@@ -278,28 +278,44 @@ pub fn write_weight_csv(path: &Path, dec: &Decimation) -> Result<()> {
 pub fn write_outputs(dir: &Path, model: &Model, doc: &ResultDoc, dec: &Decimation) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let paths: Vec<PathBuf> = FILES.iter().map(|f| dir.join(f)).collect();
-    write_atomic(&paths[0], |tmp| {
-        let f = std::io::BufWriter::new(std::fs::File::create(tmp)?);
-        serde_json::to_writer(f, doc)?;
+    // Each file goes through a temporary name; `result.json` (what `locate` reads) comes
+    // last, and if any file fails, the ones this call already wrote are removed, so a
+    // failed run never leaves a partial set behind.
+    let mut written: Vec<PathBuf> = Vec::new();
+    let result = (|| -> Result<()> {
+        write_weight_csv(&paths[1], dec).context("writing weight_curve.csv")?;
+        written.push(paths[1].clone());
+        let threshold = match dec.settings.stop {
+            StopRule::Threshold(w) => Some(w),
+            _ => None,
+        };
+        let title = format!(
+            "{}: {} / {}, {} collapses",
+            model.name,
+            dec.settings.heuristic,
+            dec.settings.estimator,
+            dec.steps.len()
+        );
+        write_atomic(&paths[2], |tmp| plot::weight_curve(tmp, &dec.steps, &title, threshold))
+            .context("writing weight_curve.png")?;
+        written.push(paths[2].clone());
+        let svg = svg::cells_svg(model, doc);
+        write_atomic(&paths[3], |tmp| Ok(std::fs::write(tmp, svg)?)).context("writing cells.svg")?;
+        written.push(paths[3].clone());
+        write_atomic(&paths[0], |tmp| {
+            let f = std::io::BufWriter::new(std::fs::File::create(tmp)?);
+            serde_json::to_writer(f, doc)?;
+            Ok(())
+        })
+        .context("writing result.json")?;
         Ok(())
-    })
-    .context("writing result.json")?;
-    write_weight_csv(&paths[1], dec).context("writing weight_curve.csv")?;
-    let threshold = match dec.settings.stop {
-        StopRule::Threshold(w) => Some(w),
-        _ => None,
-    };
-    let title = format!(
-        "{}: {} / {}, {} collapses",
-        model.name,
-        dec.settings.heuristic,
-        dec.settings.estimator,
-        dec.steps.len()
-    );
-    write_atomic(&paths[2], |tmp| plot::weight_curve(tmp, &dec.steps, &title, threshold))
-        .context("writing weight_curve.png")?;
-    let svg = svg::cells_svg(model, doc);
-    write_atomic(&paths[3], |tmp| Ok(std::fs::write(tmp, svg)?)).context("writing cells.svg")?;
+    })();
+    if let Err(e) = result {
+        for p in &written {
+            let _ = std::fs::remove_file(p);
+        }
+        return Err(e);
+    }
     Ok(paths)
 }
 
