@@ -270,7 +270,10 @@ fn failed_writes_leave_no_partial_files_and_bad_schemas_are_refused() {
     assert!(output::write_outputs(&dir, &m, &doc, &d).is_err());
     assert!(no_temp_files(&dir), "temporary files left behind");
     assert!(!dir.join("weight_curve.png").exists(), "later files not written");
-    // result.json was complete before the failure; tamper with its version.
+    assert!(!dir.join("result.json").exists(), "a failed run leaves no result.json");
+    // Remove the blocker: now the whole set is written; then tamper with the version.
+    std::fs::remove_dir_all(dir.join("weight_curve.csv")).unwrap();
+    output::write_outputs(&dir, &m, &doc, &d).unwrap();
     let text = std::fs::read_to_string(dir.join("result.json")).unwrap();
     assert!(output::read_result(&dir).is_ok());
     std::fs::write(

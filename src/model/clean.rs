@@ -121,7 +121,8 @@ pub(crate) fn clean(name: &str, file: &str, soup: Soup) -> Result<Model, ModelEr
     // Exact predicates and tolerances relative to the model's size need the coordinates
     // and their products to stay far from overflow and underflow.
     let max_abs = (0..3).map(|k| lo[k].abs().max(hi[k].abs())).fold(0.0, f64::max);
-    if !(max_abs <= 1e15) || !(diag >= 1e-9) || !(diag.is_finite()) {
+    let in_range = max_abs <= 1e15 && diag >= 1e-9 && diag.is_finite();
+    if !in_range {
         return Err(ModelError::CoordinateRange {
             file: file.into(),
             max_abs,
