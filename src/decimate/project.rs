@@ -25,19 +25,7 @@ pub struct Frame {
     pub o: P3,
 }
 
-fn sub(a: &P3, b: &P3) -> P3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn cross(a: &P3, b: &P3) -> P3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-fn dot(a: &P3, b: &P3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
+use crate::geom::vec::{cross, dot, sub};
 fn norm(a: &P3) -> f64 {
     dot(a, a).sqrt()
 }

@@ -69,7 +69,7 @@ mod polygon;
 mod polyhedron;
 #[cfg(test)]
 mod testutil;
-mod vec;
+pub(crate) mod vec;
 
 pub use plane::{Classification, Plane, Side};
 pub use polygon::{ConvexPolygon, PolygonSplit, Subtraction};
