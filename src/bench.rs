@@ -28,18 +28,20 @@ pub fn rotate_789(p: P3) -> P3 {
     (cz * x - sz * y, sz * x + cz * y, z).into()
 }
 
+/// The stress transform used throughout the tests and benchmarks: [`rotate_789`], then a
+/// shift by 1e6 on every axis (a georeferenced copy far from the origin).
+pub fn rotate_789_offset(p: P3) -> P3 {
+    let r = rotate_789(p);
+    [r[0] + 1e6, r[1] + 1e6, r[2] + 1e6]
+}
+
 /// Generates about `n` points of the given kind with a fixed seed.
 pub fn generate(kind: &str, n: usize, seed: u64) -> Option<Vec<P3>> {
     let mut rng = SplitMix64(seed);
     let mut unit = move || (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
     Some(match kind {
         "uniform" => (0..n).map(|_| [unit(), unit(), unit()]).collect(),
-        "urot" => (0..n)
-            .map(|_| {
-                let r = rotate_789([unit(), unit(), unit()]);
-                [r[0] + 1e6, r[1] + 1e6, r[2] + 1e6]
-            })
-            .collect(),
+        "urot" => (0..n).map(|_| rotate_789_offset([unit(), unit(), unit()])).collect(),
         "grid" => {
             let k = (n as f64).cbrt().round().max(2.0) as usize;
             let mut v = Vec::with_capacity(k * k * k);

@@ -19,10 +19,7 @@ fn active_volume(cx: &CellComplex) -> f64 {
 }
 
 fn rot_offset(s: &Soup) -> Soup {
-    s.clone().map(|p| {
-        let r = portalfind::bench::rotate_789(p);
-        [r[0] + 1e6, r[1] + 1e6, r[2] + 1e6]
-    })
+    s.clone().map(portalfind::bench::rotate_789_offset)
 }
 
 #[test]
@@ -210,10 +207,7 @@ fn e1m1_rotated_and_offset_agree() {
     let verts: Vec<[f64; 3]> = m
         .vertices
         .iter()
-        .map(|&v| {
-            let r = portalfind::bench::rotate_789(v);
-            [r[0] + 1e6, r[1] + 1e6, r[2] + 1e6]
-        })
+        .map(|&v| portalfind::bench::rotate_789_offset(v))
         .collect();
     let mr = from_soup("e1m1 rotated", verts, polys).unwrap();
     let tr = Tetrahedralization::build(&mr.vertices).unwrap();

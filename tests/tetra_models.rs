@@ -29,10 +29,7 @@ fn e1m1_rotated_and_offset_keeps_every_vertex() {
     let pts: Vec<[f64; 3]> = m
         .vertices
         .iter()
-        .map(|&v| {
-            let r = portalfind::bench::rotate_789(v);
-            [r[0] + 1e6, r[1] + 1e6, r[2] + 1e6]
-        })
+        .map(|&v| portalfind::bench::rotate_789_offset(v))
         .collect();
     let t = Tetrahedralization::build(&pts).unwrap();
     let r = t.validate().unwrap();

@@ -188,16 +188,7 @@ fn random_points_fixed_seeds() {
 
 #[test]
 fn rotated_and_offset_points() {
-    let (sx, cx) = 7f64.to_radians().sin_cos();
-    let (sy, cy) = 8f64.to_radians().sin_cos();
-    let (sz, cz) = 9f64.to_radians().sin_cos();
-    let rot = |p: P3| {
-        let [x, y, z] = p;
-        let (y, z) = (cx * y - sx * z, sx * y + cx * z);
-        let (x, z) = (cy * x + sy * z, -sy * x + cy * z);
-        let (x, y) = (cz * x - sz * y, sz * x + cz * y);
-        [x + 1e6, y + 1e6, z + 1e6]
-    };
+    let rot = crate::bench::rotate_789_offset;
     let pts: Vec<P3> = random(5000, 3).into_iter().map(rot).collect();
     let (_, r) = check(&pts);
     assert_eq!(r.vertices, 5000);
