@@ -150,9 +150,10 @@ pub fn run_one(kind: &str, n: usize, validate: bool) -> Option<Row> {
             if std::env::var_os("PF_BENCH_STATS").is_some() {
                 let st = t.stats();
                 eprintln!(
-                    "walk steps/pt {:.2}, cavity tets/pt {:.2}",
+                    "walk steps/pt {:.2}, cavity tets/pt {:.2}, phases [rank, order, insert, compact] {:?}",
                     st.walk_steps as f64 / pts.len() as f64,
-                    st.cavity_tets as f64 / pts.len() as f64
+                    st.cavity_tets as f64 / pts.len() as f64,
+                    st.seconds
                 );
             }
             Row {

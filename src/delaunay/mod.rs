@@ -158,8 +158,9 @@ impl Tetrahedralization {
         let t_start = std::time::Instant::now();
         // Sort by order-preserving integer keys (the same order as `f64::total_cmp`):
         // sequential memory instead of a comparator chasing point indices.
+        // -0.0 is mapped to 0.0 first, so equal coordinates get equal keys.
         let tkey = |x: f64| {
-            let b = x.to_bits();
+            let b = (x + 0.0).to_bits();
             if b >> 63 == 1 { !b } else { b | (1 << 63) }
         };
         let mut keyed: Vec<([u64; 3], u32)> = points
@@ -168,21 +169,19 @@ impl Tetrahedralization {
             .map(|(i, p)| ([tkey(p[0]), tkey(p[1]), tkey(p[2])], i as u32))
             .collect();
         keyed.sort_unstable();
-        let order: Vec<u32> = keyed.into_iter().map(|k| k.1).collect();
+        // Equal keys are equal points: the first (smallest index) represents them.
         let mut rank = vec![0u32; n];
         let mut representative: Vec<u32> = (0..n as u32).collect();
-        let mut unique: Vec<u32> = Vec::with_capacity(n);
-        for (r, &i) in order.iter().enumerate() {
+        for r in 0..n {
+            let (k, i) = keyed[r];
             rank[i as usize] = r as u32;
-            if let Some(&u) = unique.last()
-                && points[u as usize] == points[i as usize]
-            {
-                representative[i as usize] = u;
-                continue;
+            if r > 0 && keyed[r - 1].0 == k {
+                representative[i as usize] = representative[keyed[r - 1].1 as usize];
             }
-            unique.push(i);
         }
-        drop(order);
+        drop(keyed);
+        // Distinct points in input order (sequential reads for the ordering below).
+        let unique: Vec<u32> = (0..n as u32).filter(|&i| representative[i as usize] == i).collect();
         let distinct = unique.len();
         let stats = BuildStats {
             input_points: n,
@@ -195,10 +194,18 @@ impl Tetrahedralization {
         let t_rank = t_start.elapsed().as_secs_f64();
         let ins = sort::brio_hilbert(points, unique, seed);
         let t_sort = t_start.elapsed().as_secs_f64();
-        let lattice = LatticePoints::detect(points);
-        let mut b = Builder::new(points, &rank, lattice.as_ref(), seed, stats);
-        let start = b.initial(&ins)?;
-        for (k, &p) in ins.iter().enumerate() {
+        // The builder works on a copy of the distinct points in insertion order, numbered
+        // 0..m: consecutive insertions then touch nearby memory (the Hilbert order is a
+        // spatial order), instead of chasing input indices scattered over the whole array.
+        // Vertex ids are mapped back to input indices after compaction. Ranks travel with
+        // the points, so the symbolic perturbation is unchanged.
+        let local_pts: Vec<P3> = ins.iter().map(|&i| points[i as usize]).collect();
+        let local_rank: Vec<u32> = ins.iter().map(|&i| rank[i as usize]).collect();
+        let local_ins: Vec<u32> = (0..ins.len() as u32).collect();
+        let lattice = LatticePoints::detect(&local_pts);
+        let mut b = Builder::new(&local_pts, &local_rank, lattice.as_ref(), seed, stats);
+        let start = b.initial(&local_ins)?;
+        for (k, &p) in local_ins.iter().enumerate() {
             if k % 16384 == 0 {
                 progress(k, ins.len());
             }
@@ -208,7 +215,10 @@ impl Tetrahedralization {
             b.insert(p);
         }
         let t_insert = t_start.elapsed().as_secs_f64();
-        let (slots, n_finite) = b.compact();
+        let (mut slots, n_finite) = b.compact();
+        for s in &mut slots {
+            s.v = s.v.map(|x| if x >= DEAD { x } else { ins[x as usize] });
+        }
         b.stats.seconds = [
             t_rank,
             t_sort - t_rank,

@@ -6,50 +6,47 @@
 
 use crate::predicates::P3;
 
-/// Bits per axis of the Hilbert key (3 * 21 = 63 bits).
-const BITS: u32 = 21;
+/// Bits per axis of the Hilbert key: 16 levels of the curve (65536³ cells) order
+/// any round far more finely than the walk can notice; ties keep the random order.
+const BITS: u32 = 16;
 
-/// Hilbert index of a quantized point (Skilling's transpose algorithm).
+/// Hilbert index of a quantized point (Skilling's transpose algorithm, branch-free: the
+/// bits are random for random points, so branches would mispredict half the time).
 fn hilbert_key(mut x: [u32; 3]) -> u64 {
     // Inverse undo excess work (AxesToTranspose).
-    let m = 1u32 << (BITS - 1);
-    let mut q = m;
+    let mut q = 1u32 << (BITS - 1);
     while q > 1 {
         let p = q - 1;
         for i in 0..3 {
-            if x[i] & q != 0 {
-                x[0] ^= p;
-            } else {
-                let t = (x[0] ^ x[i]) & p;
-                x[0] ^= t;
-                x[i] ^= t;
-            }
+            let m = 0u32.wrapping_sub(u32::from(x[i] & q != 0));
+            let t = (x[0] ^ x[i]) & p & !m;
+            x[0] ^= (p & m) | t;
+            x[i] ^= t;
         }
         q >>= 1;
     }
     // Gray encode.
-    for i in 1..3 {
-        x[i] ^= x[i - 1];
-    }
+    x[1] ^= x[0];
+    x[2] ^= x[1];
     let mut t = 0;
-    let mut q = m;
+    let mut q = 1u32 << (BITS - 1);
     while q > 1 {
-        if x[2] & q != 0 {
-            t ^= q - 1;
-        }
+        t ^= (q - 1) & 0u32.wrapping_sub(u32::from(x[2] & q != 0));
         q >>= 1;
     }
-    for v in x.iter_mut() {
-        *v ^= t;
-    }
-    // Interleave the transposed bits, most significant first.
-    let mut key = 0u64;
-    for b in (0..BITS).rev() {
-        for v in &x {
-            key = (key << 1) | ((v >> b) & 1) as u64;
-        }
-    }
-    key
+    // Interleave the transposed bits, most significant first (x[0] highest in each triple).
+    (spread3(x[0] ^ t) << 2) | (spread3(x[1] ^ t) << 1) | spread3(x[2] ^ t)
+}
+
+/// The low 21 bits of `v` moved to every third bit (bit `b` to bit `3b`).
+fn spread3(v: u32) -> u64 {
+    let mut x = u64::from(v) & 0x1f_ffff;
+    x = (x | x << 32) & 0x001f_0000_0000_ffff;
+    x = (x | x << 16) & 0x001f_0000_ff00_00ff;
+    x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
+    x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
+    x = (x | x << 2) & 0x1249_2492_4924_9249;
+    x
 }
 
 /// A small, fast, seedable generator (SplitMix64) so insertion order is reproducible.
@@ -73,9 +70,54 @@ impl SplitMix64 {
     }
 }
 
+/// Bits of the sort key: the round (3 bits) above the 48-bit Hilbert key.
+const KEY_BITS: u32 = 3 * BITS + 3;
+/// Radix digit width (5 passes over 51-bit keys; the 4096-entry histogram fits in L1).
+const DIGIT: u32 = 12;
+
+/// Stable LSD radix sort by the key's low [`KEY_BITS`] bits.
+fn radix_sort(v: &mut [(u64, u32)], scratch: &mut Vec<(u64, u32)>) {
+    if v.len() <= 64 {
+        v.sort_by_key(|e| e.0);
+        return;
+    }
+    scratch.clear();
+    scratch.resize(v.len(), (0, 0));
+    let mask = (1u64 << DIGIT) - 1;
+    let mut count = vec![0usize; 1 << DIGIT];
+    let mut src_is_v = true;
+    for pass in 0..KEY_BITS.div_ceil(DIGIT) {
+        let shift = pass * DIGIT;
+        let (src, dst): (&[(u64, u32)], &mut [(u64, u32)]) = if src_is_v {
+            (&*v, &mut scratch[..])
+        } else {
+            (&scratch[..], &mut *v)
+        };
+        count.iter_mut().for_each(|c| *c = 0);
+        for e in src {
+            count[((e.0 >> shift) & mask) as usize] += 1;
+        }
+        let mut sum = 0;
+        for c in count.iter_mut() {
+            let k = *c;
+            *c = sum;
+            sum += k;
+        }
+        for e in src {
+            let d = ((e.0 >> shift) & mask) as usize;
+            dst[count[d]] = *e;
+            count[d] += 1;
+        }
+        src_is_v = !src_is_v;
+    }
+    if !src_is_v {
+        v.copy_from_slice(scratch);
+    }
+}
+
 /// Returns the indices `ids` in BRIO order with Hilbert-sorted rounds. Deterministic for a
 /// given seed.
-pub fn brio_hilbert(points: &[P3], mut ids: Vec<u32>, seed: u64) -> Vec<u32> {
+pub fn brio_hilbert(points: &[P3], ids: Vec<u32>, seed: u64) -> Vec<u32> {
     if ids.len() < 2 {
         return ids;
     }
@@ -95,28 +137,29 @@ pub fn brio_hilbert(points: &[P3], mut ids: Vec<u32>, seed: u64) -> Vec<u32> {
     } else {
         0.0
     };
-    let key = |i: u32| {
-        let p = points[i as usize];
+    let key = |p: &P3| {
         let q = |a: usize| (((p[a] - lo[a]) * s) as u32).min((1 << BITS) - 1);
         hilbert_key([q(0), q(1), q(2)])
     };
-    // Fisher–Yates shuffle, then rounds: the last 7/8 of the points form the last round, the
-    // last 7/8 of the rest the round before, and so on (CGAL's multiscale ratio 1/8).
+    // BRIO rounds by independent coin flips (Amenta, Choi & Rote's construction): a point
+    // joins round `last - k` with probability about 7/8 · 8^-k (k = the number of leading
+    // zero triples of a random word, capped), so the last round holds about 7/8 of the
+    // points, the one before 7/8 of the rest, and so on down to rounds of about 64 points.
+    // One radix sort by (round, Hilbert key) then orders everything; ties keep input order.
+    let mut rounds = 0u32;
+    while (ids.len() >> (3 * rounds)) > 64 && rounds < 7 {
+        rounds += 1;
+    }
     let mut rng = SplitMix64(seed);
-    for i in (1..ids.len()).rev() {
-        let j = rng.below(i + 1);
-        ids.swap(i, j);
-    }
-    let mut keyed: Vec<(u64, u32)> = ids.iter().map(|&i| (key(i), i)).collect();
-    let mut end = keyed.len();
-    loop {
-        let start = if end > 64 { end / 8 } else { 0 };
-        keyed[start..end].sort_unstable_by_key(|e| e.0);
-        if start == 0 {
-            break;
-        }
-        end = start;
-    }
+    let mut keyed: Vec<(u64, u32)> = ids
+        .iter()
+        .map(|&i| {
+            let k = (rng.next_u64().leading_zeros() / 3).min(rounds) as u64;
+            (((rounds as u64 - k) << (3 * BITS)) | key(&points[i as usize]), i)
+        })
+        .collect();
+    let mut scratch = Vec::new();
+    radix_sort(&mut keyed, &mut scratch);
     keyed.into_iter().map(|e| e.1).collect()
 }
 
