@@ -75,8 +75,11 @@ const KEY_BITS: u32 = 3 * BITS + 3;
 /// Radix digit width (5 passes over 51-bit keys; the 4096-entry histogram fits in L1).
 const DIGIT: u32 = 12;
 
+/// A sort key and a point index.
+type Keyed = (u64, u32);
+
 /// Stable LSD radix sort by the key's low [`KEY_BITS`] bits.
-fn radix_sort(v: &mut [(u64, u32)], scratch: &mut Vec<(u64, u32)>) {
+fn radix_sort(v: &mut [Keyed], scratch: &mut Vec<Keyed>) {
     if v.len() <= 64 {
         v.sort_by_key(|e| e.0);
         return;
@@ -88,7 +91,7 @@ fn radix_sort(v: &mut [(u64, u32)], scratch: &mut Vec<(u64, u32)>) {
     let mut src_is_v = true;
     for pass in 0..KEY_BITS.div_ceil(DIGIT) {
         let shift = pass * DIGIT;
-        let (src, dst): (&[(u64, u32)], &mut [(u64, u32)]) = if src_is_v {
+        let (src, dst): (&[Keyed], &mut [Keyed]) = if src_is_v {
             (&*v, &mut scratch[..])
         } else {
             (&scratch[..], &mut *v)
