@@ -12,6 +12,7 @@ pub mod bench;
 pub mod complex;
 pub mod decimate;
 pub mod delaunay;
+pub mod experiment;
 pub mod geom;
 pub mod ids;
 pub mod model;

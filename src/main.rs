@@ -81,6 +81,21 @@ enum Cmd {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Run experiment definitions (the thesis reproduction): every `*.json` of a directory,
+    /// or one file. Each experiment writes OUT/NAME/ (result.json, evaluation.json, weight
+    /// curve CSV/PNG, cells.svg); a directory run also writes OUT/summary.csv and
+    /// OUT/README.md. The schema is in experiments/README.md. Exits non-zero if any failed.
+    Experiment {
+        /// A directory of definitions, or one definition file.
+        path: PathBuf,
+        /// Results directory [default: `results` beside the definitions directory].
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Run only these experiments (comma-separated names); summary.csv and README.md
+        /// are then left alone.
+        #[arg(long, value_delimiter = ',')]
+        only: Vec<String>,
+    },
     /// For each x,y,z row of POINTS (CSV), print the id of the final cell of a run (read
     /// from DIR/result.json) that contains the point, or -1.
     Locate {
@@ -186,6 +201,7 @@ fn run(cli: Cli) -> Result<()> {
             out,
         } => run_decimation(&model, heuristic, estimator, stop, &out),
         Cmd::Locate { dir, points } => locate(&dir, &points),
+        Cmd::Experiment { path, out, only } => experiment(&path, out, &only),
     }
 }
 
@@ -600,5 +616,66 @@ fn locate(dir: &std::path::Path, points: &std::path::Path) -> Result<()> {
         }
     }
     print!("{out}");
+    Ok(())
+}
+
+fn experiment(path: &std::path::Path, out: Option<PathBuf>, only: &[String]) -> Result<()> {
+    use portalfind::experiment::{self, RunOptions};
+    let t0 = Instant::now();
+    let is_dir = path.is_dir();
+    let files = if is_dir {
+        experiment::definition_files(path)?
+    } else {
+        vec![path.to_path_buf()]
+    };
+    if files.is_empty() {
+        bail!("no experiment definitions (*.json) in {}", path.display());
+    }
+    // Model paths are relative to the repository: the parent of the definitions directory.
+    let defs_dir = if is_dir {
+        path.to_path_buf()
+    } else {
+        path.parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .unwrap_or(std::path::Path::new("."))
+            .to_path_buf()
+    };
+    let abs = std::fs::canonicalize(&defs_dir).with_context(|| format!("cannot resolve {}", defs_dir.display()))?;
+    let root = abs.parent().map_or_else(|| abs.clone(), |p| p.to_path_buf());
+    let out = out.unwrap_or_else(|| root.join("results"));
+    let mut defs = experiment::read_definitions(&files);
+    if !only.is_empty() {
+        // Unreadable definitions stay: their errors are reported.
+        defs.retain(|d| d.as_ref().is_err() || d.as_ref().is_ok_and(|d| only.contains(&d.name)));
+        let found: Vec<&String> = defs.iter().filter_map(|d| d.as_ref().ok()).map(|d| &d.name).collect();
+        if let Some(missing) = only.iter().find(|n| !found.contains(n)) {
+            bail!("--only: no experiment named {missing:?} in {}", path.display());
+        }
+    }
+    let command = std::iter::once("portalfind".to_string())
+        .chain(std::env::args().skip(1))
+        .collect::<Vec<_>>()
+        .join(" ");
+    let opts = RunOptions {
+        root,
+        out: out.clone(),
+        write_summary: is_dir && only.is_empty(),
+        command,
+    };
+    let report = experiment::run_all(defs, &opts, &mut |line| eprintln!("{line}"));
+    for f in &report.files {
+        println!("wrote {}", f.display());
+    }
+    println!(
+        "{} experiments ran, {} failed; results in {}; wall time {:.2} s",
+        report.outcomes.len(),
+        report.failures.len(),
+        out.display(),
+        t0.elapsed().as_secs_f64()
+    );
+    if !report.failures.is_empty() {
+        let list: Vec<String> = report.failures.iter().map(|f| f.to_string()).collect();
+        bail!("{} experiment(s) failed:\n  {}", list.len(), list.join("\n  "));
+    }
     Ok(())
 }

@@ -635,9 +635,9 @@ pub fn four_room_tessellated() -> ThesisModel {
         truth: four_room_truth(&rooms, &doors),
         description: "Thesis 4.3.2, tessellated room model: the same four rooms and corridors with \
             every face tessellated into cells of about 1.5 m (two 1.5 m rows in height; doors exactly \
-            one cell, so the corridor tubes share the door rings), as triangles. The surface is closed \
-            and conforming, a torus (the ring of rooms), so V = F/2 exactly as in the thesis's 200 \
-            vertices and 400 triangles."
+            one cell, so the corridor tubes share the door rings), as triangles: 186 vertices and 372 \
+            triangles (the thesis: 200 and 400). The surface is closed and conforming, a torus (the \
+            ring of rooms), so V = F/2 exactly, as for the thesis's counts."
             .into(),
     }
 }
