@@ -94,8 +94,12 @@ pub struct Row {
     pub kind: String,
     /// Points generated.
     pub points: usize,
-    /// Construction time in seconds (no generation, no validation).
+    /// Construction time in seconds (no generation, no validation); with repeats, the
+    /// fastest run (the one least disturbed by the rest of the machine).
     pub seconds: f64,
+    /// Every run's construction time, in run order (one entry without repeats).
+    #[serde(default)]
+    pub runs: Vec<f64>,
     /// Peak resident memory of the process after construction, in MB.
     pub peak_mb: f64,
     /// Finite tetrahedra.
@@ -126,6 +130,7 @@ pub fn run_one(kind: &str, n: usize, validate: bool) -> Option<Row> {
             kind: kind.into(),
             points: pts.len(),
             seconds,
+            runs: vec![seconds],
             peak_mb,
             tets: 0,
             flat: 0,
@@ -160,6 +165,7 @@ pub fn run_one(kind: &str, n: usize, validate: bool) -> Option<Row> {
                 kind: kind.into(),
                 points: pts.len(),
                 seconds,
+                runs: vec![seconds],
                 peak_mb,
                 tets: t.num_tets(),
                 flat,
@@ -169,15 +175,39 @@ pub fn run_one(kind: &str, n: usize, validate: bool) -> Option<Row> {
     })
 }
 
+/// The median of `v` (the mean of the middle two for an even count), `None` if empty.
+pub fn median(v: &[f64]) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    let mut w = v.to_vec();
+    w.sort_by(f64::total_cmp);
+    let m = w.len() / 2;
+    Some(if w.len() % 2 == 1 {
+        w[m]
+    } else {
+        0.5 * (w[m - 1] + w[m])
+    })
+}
+
 /// Formats rows as a Markdown table.
 pub fn table(rows: &[Row]) -> String {
     let mut s = String::from(
-        "| input | points | time (s) | peak RSS (MB) | tetrahedra | flat | validate |\n|---|---:|---:|---:|---:|---:|---|\n",
+        "| input | points | time (s), best | median | runs | peak RSS (MB) | tetrahedra | flat | validate |\n\
+         |---|---:|---:|---:|---:|---:|---:|---:|---|\n",
     );
     for r in rows {
         s += &format!(
-            "| {} | {} | {:.3} | {:.0} | {} | {} | {} |\n",
-            r.kind, r.points, r.seconds, r.peak_mb, r.tets, r.flat, r.validate
+            "| {} | {} | {:.3} | {:.3} | {} | {:.0} | {} | {} | {} |\n",
+            r.kind,
+            r.points,
+            r.seconds,
+            median(&r.runs).unwrap_or(r.seconds),
+            r.runs.len().max(1),
+            r.peak_mb,
+            r.tets,
+            r.flat,
+            r.validate
         );
     }
     s
