@@ -9,6 +9,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod bench;
+pub mod bsp;
 pub mod complex;
 pub mod decimate;
 pub mod delaunay;

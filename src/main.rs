@@ -3,6 +3,7 @@
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
 use portalfind::bench;
+use portalfind::complex::Subdivision;
 use portalfind::delaunay::Tetrahedralization;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -48,6 +49,15 @@ enum Cmd {
         /// (qbsp's pointfile format: load it in TrenchBroom to see where the model is open).
         #[arg(long)]
         pointfile: Option<PathBuf>,
+        /// How cells are made: delaunay (the thesis's method: tetrahedra split by the
+        /// model's polygons) or bsp (the thesis's baseline: a BSP tree whose planes are the
+        /// model's polygons, chosen to split the fewest others).
+        #[arg(long, default_value = "delaunay")]
+        subdivision: portalfind::complex::Subdivision,
+        /// For bsp: candidate planes evaluated per node (0: all; more is slower, not
+        /// always better: the choice is greedy).
+        #[arg(long, default_value_t = portalfind::bsp::DEFAULT_MAX_CANDIDATES)]
+        bsp_candidates: usize,
     },
     /// Generate test models (OBJ or .mesh by the output's extension).
     Gen {
@@ -80,6 +90,15 @@ enum Cmd {
         /// Output directory (created if missing).
         #[arg(long)]
         out: PathBuf,
+        /// How cells are made: delaunay (the thesis's method: tetrahedra split by the
+        /// model's polygons) or bsp (the thesis's baseline: a BSP tree whose planes are the
+        /// model's polygons, chosen to split the fewest others).
+        #[arg(long, default_value = "delaunay")]
+        subdivision: portalfind::complex::Subdivision,
+        /// For bsp: candidate planes evaluated per node (0: all; more is slower, not
+        /// always better: the choice is greedy).
+        #[arg(long, default_value_t = portalfind::bsp::DEFAULT_MAX_CANDIDATES)]
+        bsp_candidates: usize,
     },
     /// Run experiment definitions (the thesis reproduction): every `*.json` of a directory,
     /// or one file. Each experiment writes OUT/NAME/ (result.json, evaluation.json, weight
@@ -183,7 +202,14 @@ fn run(cli: Cli) -> Result<()> {
             model,
             no_validate,
             pointfile,
-        } => complex(&model, !no_validate, pointfile.as_deref()),
+            subdivision,
+            bsp_candidates,
+        } => complex(
+            &model,
+            !no_validate,
+            pointfile.as_deref(),
+            Cells::new(subdivision, bsp_candidates),
+        ),
         Cmd::Gen {
             what: GenCmd::Rooms { nx, ny, tess, out },
         } => gen_rooms(nx, ny, tess, &out),
@@ -209,7 +235,16 @@ fn run(cli: Cli) -> Result<()> {
             estimator,
             stop,
             out,
-        } => run_decimation(&model, heuristic, estimator, stop, &out),
+            subdivision,
+            bsp_candidates,
+        } => run_decimation(
+            &model,
+            heuristic,
+            estimator,
+            stop,
+            &out,
+            Cells::new(subdivision, bsp_candidates),
+        ),
         Cmd::Locate { dir, points } => locate(&dir, &points),
         Cmd::Experiment { path, out, only } => experiment(&path, out, &only),
     }
@@ -260,18 +295,63 @@ impl Drop for LazyBar {
 }
 
 /// Tetrahedralization and cell complex with lazy progress bars.
-fn build_complex(
-    m: &portalfind::model::Model,
-    path: &std::path::Path,
-) -> Result<(Tetrahedralization, portalfind::complex::CellComplex, f64)> {
-    let mut bar = LazyBar::new();
-    let t0 = Instant::now();
-    let t =
-        Tetrahedralization::build_with_progress(&m.vertices, 0x5eed, &mut |d, n| bar.update("tetrahedralizing", d, n))
+/// How `complex` and `run` make cells.
+#[derive(Clone, Copy)]
+struct Cells {
+    subdivision: Subdivision,
+    bsp: portalfind::bsp::BspSettings,
+}
+
+impl Cells {
+    fn new(subdivision: Subdivision, bsp_candidates: usize) -> Self {
+        Cells {
+            subdivision,
+            bsp: portalfind::bsp::BspSettings {
+                max_candidates: bsp_candidates,
+            },
+        }
+    }
+}
+
+/// What [`build_complex`] made: the complex, the stages before the complex's own timings,
+/// and statistics of the subdivision itself.
+struct Built {
+    cx: portalfind::complex::CellComplex,
+    pre: Vec<(String, f64)>,
+    stats: serde_json::Value,
+}
+
+fn build_complex(m: &portalfind::model::Model, path: &std::path::Path, how: Cells) -> Result<Built> {
+    match how.subdivision {
+        Subdivision::Delaunay => {
+            let mut bar = LazyBar::new();
+            let t0 = Instant::now();
+            let t = Tetrahedralization::build_with_progress(&m.vertices, 0x5eed, &mut |d, n| {
+                bar.update("tetrahedralizing", d, n)
+            })
             .with_context(|| format!("cannot tetrahedralize {}", path.display()))?;
-    let tt = t0.elapsed().as_secs_f64();
-    let cx = portalfind::complex::CellComplex::build_with_progress(m, &t, &mut |s, d, n| bar.update(s, d, n));
-    Ok((t, cx, tt))
+            let tt = t0.elapsed().as_secs_f64();
+            let cx = portalfind::complex::CellComplex::build_with_progress(m, &t, &mut |s, d, n| bar.update(s, d, n));
+            let stats = serde_json::json!({
+                "tetrahedra": t.num_tets(),
+                "hull_faces": t.num_hull_faces(),
+                "tetrahedralization_seconds": tt,
+            });
+            Ok(Built {
+                cx,
+                pre: vec![("delaunay tetrahedralization".into(), tt)],
+                stats,
+            })
+        }
+        Subdivision::Bsp => {
+            let (cx, stats) = portalfind::bsp::build_complex_with(m, &how.bsp);
+            Ok(Built {
+                cx,
+                pre: Vec::new(),
+                stats: serde_json::to_value(&stats)?,
+            })
+        }
+    }
 }
 
 fn load(path: &std::path::Path) -> Result<portalfind::model::Model> {
@@ -336,12 +416,14 @@ fn tetra(path: &std::path::Path, validate: bool) -> Result<()> {
     Ok(())
 }
 
-fn complex(path: &std::path::Path, validate: bool, pointfile: Option<&std::path::Path>) -> Result<()> {
+fn complex(path: &std::path::Path, validate: bool, pointfile: Option<&std::path::Path>, how: Cells) -> Result<()> {
     let m = load(path)?;
-    let (_t, cx, tt) = build_complex(&m, path)?;
+    let Built { cx, pre, stats } = build_complex(&m, path, how)?;
     let s = &cx.stats;
     println!("{:<44}{:>10}", "stage", "seconds");
-    println!("{:<44}{:>10.3}", "delaunay tetrahedralization", tt);
+    for (name, secs) in &pre {
+        println!("{name:<44}{secs:>10.3}");
+    }
     for (name, secs) in &s.timings {
         println!("{name:<44}{secs:>10.3}");
     }
@@ -380,6 +462,16 @@ fn complex(path: &std::path::Path, validate: bool, pointfile: Option<&std::path:
     ];
     for (k, v) in rows {
         println!("{k:<44}{v:>10}");
+    }
+    if how.subdivision == Subdivision::Bsp
+        && let Some(obj) = stats.as_object()
+    {
+        println!();
+        for (k, v) in obj {
+            if v.is_number() {
+                println!("{:<44}{v:>10}", format!("bsp {}", k.replace('_', " ")));
+            }
+        }
     }
     for (i, l) in cx.leaks.iter().enumerate() {
         println!(
@@ -532,6 +624,7 @@ fn run_decimation(
     estimator: portalfind::decimate::Estimator,
     stop: portalfind::decimate::StopRule,
     out: &std::path::Path,
+    how: Cells,
 ) -> Result<()> {
     use portalfind::decimate::{Decimation, QueueMode, Settings};
     // Fail before the work if the output directory cannot be created.
@@ -539,8 +632,12 @@ fn run_decimation(
     let t0 = Instant::now();
     let m = load(path)?;
     let mut stages: Vec<(String, f64)> = vec![("load model".into(), t0.elapsed().as_secs_f64())];
-    let (_t, cx, tt) = build_complex(&m, path)?;
-    stages.push(("delaunay tetrahedralization".into(), tt));
+    let Built {
+        cx,
+        pre,
+        stats: subdivision_stats,
+    } = build_complex(&m, path, how)?;
+    stages.extend(pre);
     stages.extend(cx.stats.timings.iter().cloned());
     let settings = Settings {
         heuristic,
@@ -571,7 +668,9 @@ fn run_decimation(
     bar.finish_and_clear();
     stages.push(("decimation: initial weights".into(), dec.stats.init_seconds));
     stages.push(("decimation: collapses".into(), dec.stats.collapse_seconds));
-    let doc = portalfind::output::result_doc(&m, path, &cx, &dec, &stages)?;
+    let mut doc = portalfind::output::result_doc(&m, path, &cx, &dec, &stages)?;
+    doc.settings.subdivision = how.subdivision;
+    doc.subdivision_stats = subdivision_stats;
     let t3 = Instant::now();
     let files = portalfind::output::write_outputs(out, &m, &doc, &dec)?;
     stages.push(("write outputs".into(), t3.elapsed().as_secs_f64()));

@@ -151,7 +151,7 @@ impl CellComplex {
                     3.0 * tet.volume(t) < tol.weld_abs().max(tol.plane_abs()) * amax || tet.volume(t) < min_volume(tol);
                 Cell {
                     poly,
-                    tet: t,
+                    tet: Some(t),
                     alive: true,
                     exterior: false,
                     flat,
@@ -334,7 +334,7 @@ impl CellComplex {
                         None => {
                             // Remember the crossing: a later split may leave a piece whose
                             // section this polygon covers (see `seal_cracks`).
-                            pl.defer(self.cells[c.idx()].tet, pid);
+                            pl.defer(self.cells[c.idx()].tet.expect("a tetrahedron's cell"), pid);
                             // Within tolerance of the cell's boundary: the polygon lies on a
                             // face (or grazes the cell); attach it there.
                             let attached = self.attach_on_faces(c, &polygon, &plane, pid, true);
@@ -534,7 +534,9 @@ impl CellComplex {
             // polygon's plane through three input vertices.
             let (a, b, cc) = (tet.point(ids[0]), tet.point(ids[1]), tet.point(ids[2]));
             let flip = if flipped { -1 } else { 1 };
-            let sides = tet.tet(cell.tet).map(|v| flip * orient3d(a, b, cc, tet.point(v)));
+            let sides = tet
+                .tet(cell.tet.expect("a tetrahedron's cell"))
+                .map(|v| flip * orient3d(a, b, cc, tet.point(v)));
             let (f, bk) = (sides.iter().any(|&s| s > 0), sides.iter().any(|&s| s < 0));
             return match (f, bk) {
                 (true, true) => Classification::Straddles,
@@ -634,7 +636,7 @@ impl CellComplex {
     /// (in the section's orientation: `faces == 1` faces the front piece), the old patches
     /// move to the piece they lie in or are split in two, and the neighbours across split
     /// patches subdivide their faces. Returns (front, back).
-    fn commit_split(
+    pub(crate) fn commit_split(
         &mut self,
         c: CellId,
         plane: &Plane,
@@ -739,7 +741,7 @@ impl CellComplex {
 type P3Key = [u64; 3];
 
 /// Orthogonal projection of `p` onto `plane`.
-pub(super) fn project(plane: &Plane, p: &[f64; 3]) -> [f64; 3] {
+pub(crate) fn project(plane: &Plane, p: &[f64; 3]) -> [f64; 3] {
     let n = plane.n;
     let nn = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
     let t = plane.eval(p) / nn;
@@ -762,6 +764,15 @@ impl Support {
     fn project(&self, p: &[f64; 3]) -> [f64; 3] {
         project(&self.plane, p)
     }
+}
+
+/// The support planes of all of `model`'s polygons ([`support_planes`], as the complex
+/// uses them): the supports' planes (unit normals, oriented like their largest polygon)
+/// and, per polygon, its support and whether it faces against the support's orientation.
+pub(crate) fn polygon_supports(model: &Model) -> (Vec<Plane>, Vec<(usize, bool)>) {
+    let all: Vec<PolygonId> = (0..model.polygons.len() as u32).map(PolygonId).collect();
+    let (supports, of) = support_planes(model, &all, &model.tolerances);
+    (supports.into_iter().map(|s| s.plane).collect(), of)
 }
 
 /// Groups polygons whose vertices all lie within [`crate::Tolerances::coplanar_abs`] of a
@@ -947,7 +958,7 @@ impl Placer {
     }
 
     fn on_split(&mut self, c: CellId, f: CellId, b: CellId, cells: &[Cell]) {
-        let t = cells[c.idx()].tet;
+        let t = cells[c.idx()].tet.expect("a tetrahedron's cell");
         let list = self.descendants.entry(t).or_insert_with(|| vec![CellId(t.0)]);
         list.retain(|&x| x != c);
         list.push(f);

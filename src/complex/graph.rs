@@ -72,7 +72,7 @@ impl CellComplex {
     }
 
     /// Stage 5: portals between alive cells, grouped per cell pair.
-    pub(super) fn build_graph(&mut self) {
+    pub(crate) fn build_graph(&mut self) {
         let mut by_pair: HashMap<(CellId, CellId), usize> = HashMap::new();
         let mut portals: Vec<Portal> = Vec::new();
         let (mut slivers, mut sliver_area) = (0usize, 0.0f64);
@@ -260,7 +260,7 @@ impl CellComplex {
     }
 
     /// Stage 6: remove regions that face no occluder; report leaks.
-    pub(super) fn remove_exterior(&mut self) {
+    pub(crate) fn remove_exterior(&mut self) {
         let adj = self.adjacency();
         let n = self.cells.len();
         let mut region = vec![u32::MAX; n];

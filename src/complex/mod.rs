@@ -52,12 +52,47 @@ mod build;
 mod graph;
 mod validate;
 
+pub(crate) use build::{polygon_supports, project};
+
 pub use validate::{ComplexError, ComplexValidation};
 
 use crate::geom::{ConvexPolygon, ConvexPolyhedron, Plane};
 use crate::ids::{CellId, PolygonId, TetId};
 use crate::tolerances::Tolerances;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::str::FromStr;
+
+/// How space is subdivided into cells.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Subdivision {
+    /// Delaunay tetrahedralization split by the model's polygons (thesis ch. 4).
+    #[default]
+    Delaunay,
+    /// A BSP tree of the model's polygons (the thesis's baseline, 4.3.3).
+    Bsp,
+}
+
+impl fmt::Display for Subdivision {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Subdivision::Delaunay => "delaunay",
+            Subdivision::Bsp => "bsp",
+        })
+    }
+}
+
+impl FromStr for Subdivision {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "delaunay" => Ok(Subdivision::Delaunay),
+            "bsp" => Ok(Subdivision::Bsp),
+            _ => Err(format!("unknown subdivision {s:?}; use delaunay or bsp")),
+        }
+    }
+}
 
 /// The outside of the convex hull, as the second cell of a hull patch.
 pub const HULL: CellId = CellId(u32::MAX);
@@ -102,8 +137,9 @@ pub struct Patch {
 pub struct Cell {
     /// Geometry; face tags are [`PatchId`]s.
     pub poly: ConvexPolyhedron,
-    /// The tetrahedron it descends from.
-    pub tet: TetId,
+    /// The tetrahedron it descends from; `None` for cells not built from a
+    /// tetrahedralization (the leaves of [`crate::bsp`]).
+    pub tet: Option<TetId>,
     /// False once split (replaced by its pieces).
     pub alive: bool,
     /// True once removed by the exterior flood fill.
@@ -212,7 +248,8 @@ pub struct CellComplex {
     pub stats: ComplexStats,
     /// The tolerances used.
     pub tol: Tolerances,
-    /// Volume of the convex hull (sum of tetrahedron volumes).
+    /// Volume of the region the cells fill: the convex hull (sum of tetrahedron volumes),
+    /// or the bounding box for a BSP complex ([`crate::bsp`]).
     pub hull_volume: f64,
     /// The support plane each model polygon was placed on, oriented like the polygon
     /// (nearly coplanar polygons share one; see `Tolerances::coplanar`).
@@ -223,6 +260,32 @@ pub struct CellComplex {
 }
 
 impl CellComplex {
+    /// A complex over cells and patches built elsewhere (the leaves of [`crate::bsp`]),
+    /// with the same invariants as [`CellComplex::build`]'s before its portal graph stage:
+    /// the caller may still split cells ([`CellComplex::commit_split`]) and add occluders,
+    /// then runs [`CellComplex::build_graph`] and [`CellComplex::remove_exterior`].
+    /// `hull_volume` is the volume the cells fill (checked by [`CellComplex::validate`]).
+    pub(crate) fn from_parts(
+        cells: Vec<Cell>,
+        patches: Vec<Patch>,
+        tol: Tolerances,
+        hull_volume: f64,
+        polygon_planes: Vec<Plane>,
+        stats: ComplexStats,
+    ) -> CellComplex {
+        CellComplex {
+            cells,
+            patches,
+            portals: Vec::new(),
+            leaks: Vec::new(),
+            stats,
+            tol,
+            hull_volume,
+            polygon_planes,
+            hull_through: Vec::new(),
+        }
+    }
+
     /// Alive cells (not split), including exterior ones.
     pub fn alive_cells(&self) -> impl Iterator<Item = (CellId, &Cell)> {
         self.cells

@@ -214,36 +214,7 @@ pub fn length_factor(ts: &[Transform]) -> f64 {
     ts.iter().map(Transform::length_factor).product()
 }
 
-/// How space is subdivided into cells.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Subdivision {
-    /// Delaunay tetrahedralization split by the model's polygons (thesis ch. 4).
-    #[default]
-    Delaunay,
-    /// A BSP tree of the model's polygons (the thesis's baseline, 4.3.3).
-    Bsp,
-}
-
-impl fmt::Display for Subdivision {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Subdivision::Delaunay => "delaunay",
-            Subdivision::Bsp => "bsp",
-        })
-    }
-}
-
-impl FromStr for Subdivision {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "delaunay" => Ok(Subdivision::Delaunay),
-            "bsp" => Ok(Subdivision::Bsp),
-            _ => Err(format!("unknown subdivision {s:?}; use delaunay or bsp")),
-        }
-    }
-}
+pub use crate::complex::Subdivision;
 
 /// Where the model comes from.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize)]
@@ -555,7 +526,11 @@ pub fn build_cells(model: &Model, subdivision: Subdivision) -> Result<Cells> {
             });
             Ok((cx, stats, vec![("delaunay tetrahedralization".into(), tt)]))
         }
-        Subdivision::Bsp => bail!("bsp subdivision not built yet"),
+        Subdivision::Bsp => {
+            let (cx, stats) = crate::bsp::build_complex(model);
+            let stats = serde_json::to_value(&stats).context("cannot serialize BSP statistics")?;
+            Ok((cx, stats, Vec::new()))
+        }
     }
 }
 
@@ -588,7 +563,9 @@ pub fn run_pipeline(
     let dec = Decimation::run(&cx, settings);
     stages.push(("decimation: initial weights".into(), dec.stats.init_seconds));
     stages.push(("decimation: collapses".into(), dec.stats.collapse_seconds));
-    let doc = output::result_doc(model, model_path, &cx, &dec, &stages)?;
+    let mut doc = output::result_doc(model, model_path, &cx, &dec, &stages)?;
+    doc.settings.subdivision = subdivision;
+    doc.subdivision_stats = subdivision_stats.clone();
     Ok(Pipeline {
         cx,
         subdivision_stats,

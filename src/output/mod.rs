@@ -41,6 +41,10 @@ pub struct ResultDoc {
     pub stages: Vec<StageTiming>,
     /// Cell-complex statistics ([`ComplexStats`], serialized as is).
     pub complex: serde_json::Value,
+    /// Statistics of the subdivision itself (`bsp`: [`crate::bsp::BspStats`]; `delaunay`:
+    /// tetrahedra, hull faces, seconds); `null` when not recorded.
+    #[serde(default)]
+    pub subdivision_stats: serde_json::Value,
     /// Decimation statistics.
     pub decimation: DecimationStats,
     /// Why the decimation stopped.
@@ -83,6 +87,9 @@ pub struct SettingsDoc {
     pub stop: String,
     /// Queue variant (identical results).
     pub queue: QueueMode,
+    /// How the cells were made (`delaunay` or `bsp`; files without it are `delaunay`).
+    #[serde(default)]
+    pub subdivision: crate::complex::Subdivision,
 }
 
 /// One stage's time.
@@ -203,6 +210,7 @@ pub fn result_doc(
             estimator: dec.settings.estimator,
             stop: dec.settings.stop.to_string(),
             queue: dec.settings.queue,
+            subdivision: crate::complex::Subdivision::Delaunay,
         },
         stages: stages
             .iter()
@@ -212,6 +220,7 @@ pub fn result_doc(
             })
             .collect(),
         complex: serde_json::to_value(stats)?,
+        subdivision_stats: serde_json::Value::Null,
         decimation: dec.stats.clone(),
         stop_reason: dec.stop,
         cells,
