@@ -192,16 +192,21 @@ impl Tetrahedralization {
             return Err(DelaunayError::TooFewPoints { distinct });
         }
         let t_rank = t_start.elapsed().as_secs_f64();
-        let ins = sort::brio_hilbert(points, unique, seed);
+        let (ins, storage) = sort::brio_hilbert_with_storage(points, unique, seed);
         let t_sort = t_start.elapsed().as_secs_f64();
-        // The builder works on a copy of the distinct points in insertion order, numbered
-        // 0..m: consecutive insertions then touch nearby memory (the Hilbert order is a
-        // spatial order), instead of chasing input indices scattered over the whole array.
-        // Vertex ids are mapped back to input indices after compaction. Ranks travel with
-        // the points, so the symbolic perturbation is unchanged.
-        let local_pts: Vec<P3> = ins.iter().map(|&i| points[i as usize]).collect();
-        let local_rank: Vec<u32> = ins.iter().map(|&i| rank[i as usize]).collect();
-        let local_ins: Vec<u32> = (0..ins.len() as u32).collect();
+        // The builder works on a copy of the distinct points stored in Hilbert order and
+        // numbered 0..m: a point's neighbours then lie nearby in memory, whichever BRIO
+        // round inserted them (input order is arbitrary; insertion order scatters each
+        // neighbourhood over the rounds). Vertex ids are mapped back to input indices after
+        // compaction. Ranks travel with the points, so the symbolic perturbation is unchanged.
+        let local_pts: Vec<P3> = storage.iter().map(|&i| points[i as usize]).collect();
+        let local_rank: Vec<u32> = storage.iter().map(|&i| rank[i as usize]).collect();
+        let mut local_of = vec![0u32; n];
+        for (j, &i) in storage.iter().enumerate() {
+            local_of[i as usize] = j as u32;
+        }
+        let local_ins: Vec<u32> = ins.iter().map(|&i| local_of[i as usize]).collect();
+        drop(local_of);
         let lattice = LatticePoints::detect(&local_pts);
         let mut b = Builder::new(&local_pts, &local_rank, lattice.as_ref(), seed, stats);
         let start = b.initial(&local_ins)?;
@@ -217,7 +222,7 @@ impl Tetrahedralization {
         let t_insert = t_start.elapsed().as_secs_f64();
         let (mut slots, n_finite) = b.compact();
         for s in &mut slots {
-            s.v = s.v.map(|x| if x >= DEAD { x } else { ins[x as usize] });
+            s.v = s.v.map(|x| if x >= DEAD { x } else { storage[x as usize] });
         }
         b.stats.seconds = [
             t_rank,

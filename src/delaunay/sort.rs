@@ -120,9 +120,17 @@ fn radix_sort(v: &mut [Keyed], scratch: &mut Vec<Keyed>) {
 
 /// Returns the indices `ids` in BRIO order with Hilbert-sorted rounds. Deterministic for a
 /// given seed.
+#[cfg(test)]
 pub fn brio_hilbert(points: &[P3], ids: Vec<u32>, seed: u64) -> Vec<u32> {
+    brio_hilbert_with_storage(points, ids, seed).0
+}
+
+/// [`brio_hilbert`], and also the same indices in plain Hilbert order (no rounds): the
+/// order to *store* points in, so that a point's neighbours lie nearby in memory whatever
+/// round they were inserted in.
+pub fn brio_hilbert_with_storage(points: &[P3], ids: Vec<u32>, seed: u64) -> (Vec<u32>, Vec<u32>) {
     if ids.len() < 2 {
-        return ids;
+        return (ids.clone(), ids);
     }
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
@@ -163,7 +171,13 @@ pub fn brio_hilbert(points: &[P3], ids: Vec<u32>, seed: u64) -> Vec<u32> {
         .collect();
     let mut scratch = Vec::new();
     radix_sort(&mut keyed, &mut scratch);
-    keyed.into_iter().map(|e| e.1).collect()
+    let order: Vec<u32> = keyed.iter().map(|e| e.1).collect();
+    let hmask = (1u64 << (3 * BITS)) - 1;
+    for e in keyed.iter_mut() {
+        e.0 &= hmask;
+    }
+    radix_sort(&mut keyed, &mut scratch);
+    (order, keyed.into_iter().map(|e| e.1).collect())
 }
 
 #[cfg(test)]
