@@ -1,10 +1,12 @@
 //! Experiments (`portalfind experiment`): every definition in `experiments/` parses; one
 //! small experiment writes its files and a correct `evaluation.json`; rooms isolated is
-//! false and true where it must be; the rotation-check matcher; typed errors naming the file
-//! and the field; a failing experiment does not stop the others and fails the exit status.
+//! false and true where it must be; separating portals and doorways at the room-separation
+//! state; the rotation-check matcher, on final and on separating portals; typed errors
+//! naming the file and the field; a failing experiment does not stop the others and fails
+//! the exit status.
 
 use portalfind::experiment::eval::{self, Evaluation, PortalSummary};
-use portalfind::experiment::{self, CompareTo, Definition, ExperimentError, RunOptions, Transform};
+use portalfind::experiment::{self, CompareTo, Definition, ExperimentError, PortalSet, RunOptions, Transform};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -64,6 +66,13 @@ fn every_definition_parses_with_a_unique_name() {
     for want in ["four_room_optimized", "caverns", "caverns_rotated", "e1m1"] {
         assert!(names.iter().any(|n| n == want), "no experiment {want}");
     }
+    // The BSP-vs-Delaunay comparison is on separating portals; the rotation check on both.
+    let bsp = Definition::read(&repo().join("experiments/14_caverns_bsp.json")).unwrap();
+    assert_eq!(bsp.compare_to.len(), 1);
+    assert_eq!(bsp.compare_to[0].portals, PortalSet::Separating);
+    let rot = Definition::read(&repo().join("experiments/09_caverns_rotated.json")).unwrap();
+    let sets: Vec<PortalSet> = rot.compare_to.iter().map(|c| c.portals).collect();
+    assert_eq!(sets, [PortalSet::Final, PortalSet::Separating]);
 }
 
 #[test]
@@ -146,6 +155,96 @@ fn rooms_isolated_true_when_separated_and_false_in_one_cell() {
     assert_eq!(t.full_run_collapses, e.decimation.collapses);
 }
 
+#[test]
+fn separating_portals_of_the_four_rooms_match_every_doorway() {
+    // refined + hull on the optimised four rooms: just before the first room join, four
+    // cells (one per room, no spikes), one separating portal per corridor of the ring.
+    let out = tmp_dir("sep");
+    let base = r#""model": "four_room_optimized", "heuristic": "refined", "estimator": "hull""#;
+    let e = run_one(def(&format!(r#"{{"name": "sep", {base}, "stop": "cells:4"}}"#)), &out);
+    let t = e.truth.as_ref().unwrap();
+    let s = t.separation.as_ref().unwrap();
+    let j = t.weight_jump.as_ref().unwrap();
+    assert_eq!(s.state, "before first room join");
+    assert_eq!(s.collapses, j.step - 1);
+    assert_eq!((s.cells, s.rooms_isolated, s.spike_cells), (4, 4, 0));
+    assert_eq!(
+        (s.rooms_isolated, s.spike_cells),
+        (j.rooms_isolated_before, j.spike_cells_before)
+    );
+    assert_eq!(s.separating_portals, 4);
+    assert_eq!(s.portals.len(), 4);
+    for p in &s.portals {
+        assert!(p.cells[0] < p.cells[1] && p.area > 0.0);
+        assert!(p.rooms.iter().all(|r| r.len() == 1) && p.rooms[0] != p.rooms[1]);
+    }
+    assert_eq!(t.doorways, 4);
+    assert_eq!(
+        (
+            s.doorways_matched,
+            s.doorways_matched_by_position,
+            s.portals_at_doorways
+        ),
+        (4, 4, 4)
+    );
+    for d in &s.per_doorway {
+        let p = &s.portals[d.portal.unwrap()];
+        let mut want = [vec![d.rooms[0]], vec![d.rooms[1]]];
+        want.sort();
+        let mut got = p.rooms.clone();
+        got.sort();
+        assert_eq!(got, want);
+        // The portals lie at the corridors' ends (0.6-0.7 m from the middle), across them.
+        assert!(d.distance.unwrap() <= s.position_tolerance);
+        assert!(d.axis_distance.unwrap() < 0.1 && d.tilt_deg.unwrap() < 10.0, "{d:?}");
+    }
+    // The state belongs to the full run: the same with stop `none`.
+    let e2 = run_one(def(&format!(r#"{{"name": "all", {base}, "stop": "none"}}"#)), &out);
+    let s2 = e2.truth.as_ref().unwrap().separation.as_ref().unwrap();
+    assert_eq!(serde_json::to_value(s).unwrap(), serde_json::to_value(s2).unwrap());
+}
+
+#[test]
+fn separating_portals_of_the_caverns_survive_the_rotation() {
+    let out = tmp_dir("seprot");
+    let read = |f: &str| Definition::read(&repo().join("experiments").join(f)).unwrap();
+    let r = experiment::run_all(
+        vec![Ok(read("08_caverns.json")), Ok(read("09_caverns_rotated.json"))],
+        &opts(&out, false),
+        &mut |_| {},
+    );
+    assert!(
+        r.failures.is_empty(),
+        "{:?}",
+        r.failures.iter().map(|f| f.to_string()).collect::<Vec<_>>()
+    );
+    let checks = &r.outcomes[1].eval.rotation_checks;
+    assert_eq!(checks.len(), 2);
+    assert_eq!(
+        (checks[0].portals, checks[1].portals),
+        (PortalSet::Final, PortalSet::Separating)
+    );
+    let sep = &checks[1];
+    assert!(sep.identical && sep.ours_total >= 5, "{sep:?}");
+    let s = r.outcomes[0].eval.truth.as_ref().unwrap().separation.as_ref().unwrap();
+    assert_eq!(sep.theirs_total, s.separating_portals);
+    assert_eq!(s.rooms_isolated, 6);
+    // Against an earlier run's files: separating portals come from its evaluation.json.
+    let r = experiment::run_all(
+        vec![Ok(read("09_caverns_rotated.json"))],
+        &opts(&out, false),
+        &mut |_| {},
+    );
+    assert!(
+        r.failures.is_empty(),
+        "{:?}",
+        r.failures.iter().map(|f| f.to_string()).collect::<Vec<_>>()
+    );
+    let again = &r.outcomes[0].eval.rotation_checks;
+    assert!(again.iter().all(|c| c.identical), "{again:?}");
+    assert_eq!(again[1].theirs_total, s.separating_portals);
+}
+
 fn rotated(ps: &[PortalSummary], t: &Transform) -> Vec<PortalSummary> {
     ps.iter()
         .map(|p| PortalSummary {
@@ -171,6 +270,7 @@ fn rotation_check_matches_rotated_portals_and_not_shifted_ones() {
     let rot = Transform::RotateDeg([7.0, 8.0, 9.0]);
     let c = CompareTo {
         experiment: "base".into(),
+        portals: PortalSet::Final,
         transform_inverse_of: vec![rot],
         distance_tolerance: 0.02,
         area_tolerance: 0.2,
@@ -228,6 +328,10 @@ fn unknown_fields_and_bad_values_are_typed_errors_naming_file_and_field() {
             format!(r#"{{{base}, "transforms": [{{"spin": [1, 2, 3]}}]}}"#),
             "transforms[0].spin",
         ),
+        (
+            format!(r#"{{{base}, "compare_to": [{{"experiment": "y"}}, {{"experiment": "z", "tol": 1}}]}}"#),
+            "compare_to[1].tol",
+        ),
     ];
     for (json, field) in &cases {
         match Definition::parse(f, json) {
@@ -256,6 +360,14 @@ fn unknown_fields_and_bad_values_are_typed_errors_naming_file_and_field() {
         ),
         (format!(r#"{{{base}, "thesis": {{"tets": [1]}}}}"#), "thesis.tets"),
         (format!(r#"{{{base}, "subdivision": "octree"}}"#), "subdivision"),
+        (
+            format!(r#"{{{base}, "compare_to": {{"experiment": "y", "portals": "all"}}}}"#),
+            "compare_to.portals",
+        ),
+        (
+            format!(r#"{{{base}, "compare_to": [{{"experiment": "y", "portals": "final"}}, 3]}}"#),
+            "compare_to[1]",
+        ),
     ];
     for (json, field) in &invalid {
         match Definition::parse(f, json) {

@@ -16,11 +16,19 @@
 //!   run, just before the first room-joining collapse).
 //! - **Doorway matched**: a final portal joins the final cells holding most of the two
 //!   rooms' samples, and either both rooms are isolated or the portal lies at the doorway.
+//! - **Room-separation state** ([`Separation`]): the partition of the full run just before
+//!   its first room-joining collapse (replayed with [`Decimation::replay`]; the full run's
+//!   end when no collapse joins rooms). Its **separating portals** are the merged portals
+//!   between two cells holding samples of different room sets; a doorway is matched at
+//!   separation when a separating portal joins the cells holding most of its two rooms'
+//!   samples, and matched by position when that portal's centroid also lies within
+//!   [`SEPARATION_POSITION_TOLERANCE`] of the bounding-box diagonal of the doorway's centre.
 
 use super::{CompareTo, Definition, Pipeline};
 use crate::complex::CellComplex;
-use crate::decimate::{Decimation, Step, StopRule};
+use crate::decimate::{Decimation, Partition, Step, StopRule};
 use crate::geom::ConvexPolygon;
+use crate::ids::CellId;
 use crate::model::Model;
 use crate::output::{Locator, ResultDoc};
 use crate::predicates::P3;
@@ -32,10 +40,15 @@ use std::time::Instant;
 
 /// Value of [`Evaluation::schema`].
 pub const SCHEMA: &str = "portalfind-evaluation";
-/// Value of [`Evaluation::schema_version`].
-pub const SCHEMA_VERSION: u32 = 1;
+/// Value of [`Evaluation::schema_version`] (2: `rotation_checks` as a list,
+/// `truth.separation`).
+pub const SCHEMA_VERSION: u32 = 2;
 /// Doorway position tolerance: at least this fraction of the model's bounding-box diagonal.
 pub const DOORWAY_TOLERANCE: f64 = 0.02;
+/// Doorway position tolerance at the room-separation state, as a fraction of the model's
+/// bounding-box diagonal: loose, because a portal may sit anywhere along a corridor or
+/// tunnel (the plane and axis distances say where).
+pub const SEPARATION_POSITION_TOLERANCE: f64 = 0.10;
 
 /// `evaluation.json`.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -64,8 +77,9 @@ pub struct Evaluation {
     pub timings: Timings,
     /// Scores against the ground truth (`null` without one).
     pub truth: Option<TruthEval>,
-    /// The rotation check (`null` without `compare_to`).
-    pub rotation_check: Option<RotationCheck>,
+    /// The rotation checks, one per `compare_to` entry (empty without `compare_to`).
+    #[serde(default)]
+    pub rotation_checks: Vec<RotationCheck>,
     /// The thesis's figures, copied from the definition.
     pub thesis: Map<String, Value>,
 }
@@ -195,6 +209,90 @@ pub struct TruthEval {
     pub portals_at_doorways: usize,
     /// Per doorway.
     pub per_doorway: Vec<DoorwayEval>,
+    /// The room-separation state of the full run (`null` only in files of schema version 1).
+    #[serde(default)]
+    pub separation: Option<Separation>,
+}
+
+/// The room-separation state: the full run's partition just before its first
+/// room-joining collapse, or its final partition when no collapse joins rooms.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Separation {
+    /// `before first room join` or `end of the full run (no collapse joins rooms)`.
+    pub state: String,
+    /// Collapses of the full run replayed to reach it.
+    pub collapses: usize,
+    /// Cells.
+    pub cells: usize,
+    /// Rooms isolated: all samples in one cell, which holds no other room's samples.
+    pub rooms_isolated: usize,
+    /// Per room: the cell holding most of its samples (lowest id on ties; `null`: none
+    /// located).
+    pub room_cells: Vec<Option<u32>>,
+    /// Cells holding no sample point.
+    pub spike_cells: usize,
+    /// Their volume as a fraction of the active volume.
+    pub spike_volume_fraction: f64,
+    /// Number of separating portals.
+    pub separating_portals: usize,
+    /// The separating portals (merged portals between cells with different room sets),
+    /// sorted by cell pair.
+    pub portals: Vec<SeparatingPortal>,
+    /// Doorways whose two rooms' cells are joined by a separating portal.
+    pub doorways_matched: usize,
+    /// Of those, the ones whose portal centroid lies within `position_tolerance` of the
+    /// doorway's centre.
+    pub doorways_matched_by_position: usize,
+    /// Absolute position tolerance: [`SEPARATION_POSITION_TOLERANCE`] × the bbox diagonal.
+    pub position_tolerance: f64,
+    /// Separating portals matched by some doorway.
+    pub portals_at_doorways: usize,
+    /// Per doorway.
+    pub per_doorway: Vec<SeparationDoorway>,
+}
+
+/// A separating portal: all portal pieces between two cells holding different rooms.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct SeparatingPortal {
+    /// The two cells (ids, ascending).
+    pub cells: [u32; 2],
+    /// The rooms (indices) whose samples each cell holds.
+    pub rooms: [Vec<usize>; 2],
+    /// Summed area.
+    pub area: f64,
+    /// Area-weighted centroid of its pieces.
+    pub centroid: P3,
+    /// Unit mean normal, from `cells[0]` to `cells[1]`.
+    pub normal: P3,
+    /// Convex pieces.
+    pub pieces: usize,
+}
+
+/// One doorway at the room-separation state.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct SeparationDoorway {
+    /// The two rooms.
+    pub rooms: [usize; 2],
+    /// Their cells (see [`Separation::room_cells`]).
+    pub cells: [Option<u32>; 2],
+    /// A separating portal joins the two cells.
+    pub matched: bool,
+    /// And its centroid is within the position tolerance of the doorway's centre.
+    pub matched_by_position: bool,
+    /// That portal's index in [`Separation::portals`].
+    pub portal: Option<usize>,
+    /// Distance from the doorway's centre (vertex mean) to the portal's area-weighted
+    /// centroid.
+    pub distance: Option<f64>,
+    /// Distance of the centroid from the doorway's plane (through its centre, normal: the
+    /// polygon's Newell normal, i.e. along the corridor or tunnel axis).
+    pub plane_distance: Option<f64>,
+    /// Distance of the centroid from the doorway's axis (the line through its centre along
+    /// that normal).
+    pub axis_distance: Option<f64>,
+    /// Angle in degrees between the portal's mean plane and the doorway's plane (0: the
+    /// portal is orthogonal to the corridor axis, as a cross-section).
+    pub tilt_deg: Option<f64>,
 }
 
 /// One room.
@@ -288,6 +386,9 @@ pub struct DoorwayEval {
 pub struct RotationCheck {
     /// The other experiment.
     pub against: String,
+    /// Which portals were compared: `final` or `separating`.
+    #[serde(default)]
+    pub portals: super::PortalSet,
     /// Absolute centroid tolerance (fraction × the other model's bbox diagonal).
     pub distance_tolerance: f64,
     /// Relative area tolerance.
@@ -380,7 +481,21 @@ pub fn map_back(ps: &[PortalSummary], ts: &[super::Transform]) -> Vec<PortalSumm
         .collect()
 }
 
-/// The rotation check of `ours` (this experiment's final portals) against `theirs`, whose
+/// The separating portals of an evaluation (`None` without a ground truth).
+pub fn separating_summaries(e: &Evaluation) -> Option<Vec<PortalSummary>> {
+    let s = e.truth.as_ref()?.separation.as_ref()?;
+    Some(
+        s.portals
+            .iter()
+            .map(|p| PortalSummary {
+                centroid: p.centroid,
+                area: p.area,
+            })
+            .collect(),
+    )
+}
+
+/// The rotation check of `ours` (this experiment's final or separating portals) against `theirs`, whose
 /// model has bounding-box diagonal `their_diagonal`.
 pub fn rotation_check(
     c: &CompareTo,
@@ -404,6 +519,7 @@ pub fn rotation_check(
         .max_by(f64::total_cmp);
     RotationCheck {
         against: c.experiment.clone(),
+        portals: c.portals,
         distance_tolerance: tol,
         area_tolerance: c.area_tolerance,
         ours_matched,
@@ -462,6 +578,7 @@ fn difference_nonempty(a: &[usize], b: &[usize]) -> bool {
 fn full_run_analysis(
     cx: &CellComplex,
     truth: &GroundTruth,
+    located: &[Vec<Option<u32>>],
     steps: &[Step],
     initial_cells: usize,
     active_volume: f64,
@@ -476,11 +593,6 @@ fn full_run_analysis(
     for (id, c) in cx.active_cells() {
         s.volume[id.idx()] = c.poly.volume();
     }
-    let located: Vec<Vec<Option<u32>>> = truth
-        .rooms
-        .iter()
-        .map(|room| locate_in_complex(cx, &room.samples))
-        .collect();
     for (r, cells) in located.iter().enumerate() {
         for &c in cells.iter().flatten() {
             let v = &mut s.rooms[c as usize];
@@ -521,7 +633,7 @@ fn full_run_analysis(
                 // Before the first room-joining collapse no set holds two rooms, so a room
                 // is isolated when all its samples are located in one set.
                 let mut rooms_isolated_before = 0;
-                for cells in &located {
+                for cells in located {
                     let roots: Vec<Option<u32>> = cells.iter().map(|c| c.map(|c| s.find(c))).collect();
                     if !roots.is_empty() && roots.iter().all(|r| r.is_some() && *r == roots[0]) {
                         rooms_isolated_before += 1;
@@ -707,14 +819,35 @@ fn truth_eval(p: &mut Pipeline, truth: &GroundTruth, diag: f64) -> TruthEval {
     };
     let stopped = &p.dec.steps;
     let stopped_run_is_prefix = stopped.len() <= full.steps.len() && full.steps[..stopped.len()] == stopped[..];
+    let located: Vec<Vec<Option<u32>>> = truth
+        .rooms
+        .iter()
+        .map(|room| locate_in_complex(&p.cx, &room.samples))
+        .collect();
     let (weight_jump, room_merges) = full_run_analysis(
         &p.cx,
         truth,
+        &located,
         &full.steps,
         full.stats.initial_cells,
         active_volume,
         stopped.len(),
     );
+    // The room-separation state: replay up to the first room-joining collapse.
+    let replayed;
+    let (partition, collapses, state) = match &weight_jump {
+        Some(j) => {
+            replayed =
+                Decimation::replay(&p.cx, &full.steps[..j.step - 1]).expect("a prefix of a recorded run replays");
+            (&replayed, j.step - 1, "before first room join")
+        }
+        None => (
+            &full.partition,
+            full.steps.len(),
+            "end of the full run (no collapse joins rooms)",
+        ),
+    };
+    let separation = separation_state(&p.cx, truth, &located, partition, collapses, state, active_volume, diag);
     let rooms_isolated = per_room.iter().filter(|r| r.isolated).count();
     TruthEval {
         rooms: truth.rooms.len(),
@@ -735,6 +868,183 @@ fn truth_eval(p: &mut Pipeline, truth: &GroundTruth, diag: f64) -> TruthEval {
         doorways_matched: per_doorway.iter().filter(|d| d.matched).count(),
         portals_at_doorways: used_portals.len(),
         per_doorway,
+        separation: Some(separation),
+    }
+}
+
+/// Unit Newell normal of a (possibly non-planar) closed polygon; `None` when degenerate.
+fn newell_normal(ps: &[P3]) -> Option<P3> {
+    let mut n = [0.0; 3];
+    for (i, a) in ps.iter().enumerate() {
+        let b = &ps[(i + 1) % ps.len()];
+        n[0] += (a[1] - b[1]) * (a[2] + b[2]);
+        n[1] += (a[2] - b[2]) * (a[0] + b[0]);
+        n[2] += (a[0] - b[0]) * (a[1] + b[1]);
+    }
+    let l = dot(&n, &n).sqrt();
+    (l > 0.0 && l.is_finite()).then(|| n.map(|x| x / l))
+}
+
+fn dot(a: &P3, b: &P3) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// The cell holding most of `cells` (lowest id on ties).
+fn majority(cells: &[Option<u32>]) -> Option<u32> {
+    let mut counts: Vec<(u32, usize)> = Vec::new();
+    for c in cells.iter().flatten() {
+        match counts.iter_mut().find(|(id, _)| id == c) {
+            Some(e) => e.1 += 1,
+            None => counts.push((*c, 1)),
+        }
+    }
+    counts.sort_by_key(|&(id, n)| (std::cmp::Reverse(n), id));
+    counts.first().map(|e| e.0)
+}
+
+/// Separating portals and doorways at the room-separation state `partition` (reached after
+/// `collapses` collapses of the full run); `located`: each room's samples in the complex's
+/// cells.
+#[allow(clippy::too_many_arguments)]
+fn separation_state(
+    cx: &CellComplex,
+    truth: &GroundTruth,
+    located: &[Vec<Option<u32>>],
+    partition: &Partition,
+    collapses: usize,
+    state: &str,
+    active_volume: f64,
+    diag: f64,
+) -> Separation {
+    // Each sample's merged cell (its id), and each merged cell's rooms.
+    let sample_cells: Vec<Vec<Option<u32>>> = located
+        .iter()
+        .map(|cells| {
+            cells
+                .iter()
+                .map(|c| {
+                    c.and_then(|c| partition.cell_of(CellId(c)))
+                        .map(|i| partition.cells[i].id.0)
+                })
+                .collect()
+        })
+        .collect();
+    let mut rooms_of: Vec<Vec<usize>> = vec![Vec::new(); partition.len()];
+    for (r, cells) in located.iter().enumerate() {
+        for &c in cells.iter().flatten() {
+            if let Some(i) = partition.cell_of(CellId(c))
+                && !rooms_of[i].contains(&r)
+            {
+                rooms_of[i].push(r);
+            }
+        }
+    }
+    for v in &mut rooms_of {
+        v.sort_unstable();
+    }
+    let index_of = |id: CellId| {
+        partition
+            .cell_of(id)
+            .expect("a partition cell's name is one of its pieces")
+    };
+    let room_cells: Vec<Option<u32>> = sample_cells.iter().map(|c| majority(c)).collect();
+    let rooms_isolated = sample_cells
+        .iter()
+        .zip(&room_cells)
+        .filter(|(cells, cell)| {
+            !cells.is_empty()
+                && cells.iter().all(|c| c.is_some() && c == *cell)
+                && cell.is_some_and(|id| rooms_of[index_of(CellId(id))].len() == 1)
+        })
+        .count();
+    let (mut spikes, mut spike_volume) = (0, 0.0);
+    for (c, rooms) in partition.cells.iter().zip(&rooms_of) {
+        if rooms.is_empty() {
+            spikes += 1;
+            spike_volume += c.volume;
+        }
+    }
+    let portals: Vec<SeparatingPortal> = partition
+        .portals(cx)
+        .into_iter()
+        .filter_map(|mp| {
+            let r = mp.cells.map(|c| rooms_of[index_of(c)].clone());
+            if r[0].is_empty() || r[1].is_empty() || r[0] == r[1] {
+                return None;
+            }
+            Some(SeparatingPortal {
+                cells: mp.cells.map(|c| c.0),
+                rooms: r,
+                area: mp.area,
+                centroid: weighted_centroid(&mp.pieces),
+                normal: mp.mean_normal,
+                pieces: mp.pieces.len(),
+            })
+        })
+        .collect();
+    let position_tolerance = SEPARATION_POSITION_TOLERANCE * diag;
+    let mut used: Vec<usize> = Vec::new();
+    let per_doorway: Vec<SeparationDoorway> = truth
+        .doorways
+        .iter()
+        .map(|d| {
+            let cells = d.rooms.map(|r| room_cells[r]);
+            let mut e = SeparationDoorway {
+                rooms: d.rooms,
+                cells,
+                matched: false,
+                matched_by_position: false,
+                portal: None,
+                distance: None,
+                plane_distance: None,
+                axis_distance: None,
+                tilt_deg: None,
+            };
+            let (Some(a), Some(b)) = (cells[0], cells[1]) else {
+                return e;
+            };
+            let key = [a.min(b), a.max(b)];
+            let Some(k) = portals.iter().position(|p| p.cells == key) else {
+                return e;
+            };
+            let p = &portals[k];
+            let centre = mean(&d.polygon);
+            let off = [0, 1, 2].map(|i| p.centroid[i] - centre[i]);
+            let distance = dot(&off, &off).sqrt();
+            e.matched = true;
+            e.portal = Some(k);
+            e.distance = Some(distance);
+            e.matched_by_position = distance <= position_tolerance;
+            if let Some(n) = newell_normal(&d.polygon) {
+                let along = dot(&off, &n);
+                e.plane_distance = Some(along.abs());
+                e.axis_distance = Some((distance * distance - along * along).max(0.0).sqrt());
+                e.tilt_deg = Some(dot(&p.normal, &n).abs().min(1.0).acos().to_degrees());
+            }
+            if !used.contains(&k) {
+                used.push(k);
+            }
+            e
+        })
+        .collect();
+    Separation {
+        state: state.into(),
+        collapses,
+        cells: partition.len(),
+        rooms_isolated,
+        room_cells,
+        spike_cells: spikes,
+        spike_volume_fraction: match spike_volume / active_volume {
+            f if f.is_finite() && f > 1e-12 => f,
+            _ => 0.0,
+        },
+        separating_portals: portals.len(),
+        doorways_matched: per_doorway.iter().filter(|d| d.matched).count(),
+        doorways_matched_by_position: per_doorway.iter().filter(|d| d.matched_by_position).count(),
+        position_tolerance,
+        portals_at_doorways: used.len(),
+        per_doorway,
+        portals,
     }
 }
 
@@ -804,7 +1114,7 @@ pub fn evaluate(
             total_seconds: t0.elapsed().as_secs_f64(),
         },
         truth: truth_eval,
-        rotation_check: None,
+        rotation_checks: Vec::new(),
         thesis: def.thesis.clone(),
     })
 }

@@ -2,8 +2,9 @@
 //! (`experiments/*.json`, schema in `experiments/README.md`) names a model (a thesis
 //! reconstruction from [`crate::thesis_models`] with its ground truth, or an OBJ/`.mesh`
 //! file), optional transforms, the subdivision, heuristic, estimator and stop rule, the
-//! thesis's figures for the side-by-side table, and optionally another experiment to
-//! compare final portals with (the rotation check of thesis 4.3.4).
+//! thesis's figures for the side-by-side table, and optionally other experiments to compare
+//! portals with (the rotation check of thesis 4.3.4): the final portals, or the separating
+//! portals of the room-separation state ([`eval::Separation`]).
 //!
 //! [`run_all`] runs definitions; each experiment writes `results/<name>/` with the files of
 //! `portalfind run` ([`crate::output::write_outputs`]) and `evaluation.json`
@@ -49,8 +50,9 @@ pub const FIELDS: [&str; 11] = [
 ];
 
 /// The fields of `compare_to`.
-pub const COMPARE_FIELDS: [&str; 4] = [
+pub const COMPARE_FIELDS: [&str; 5] = [
     "experiment",
+    "portals",
     "transform_inverse_of",
     "distance_tolerance",
     "area_tolerance",
@@ -237,12 +239,35 @@ impl fmt::Display for ModelSource {
     }
 }
 
-/// The rotation check: map this experiment's final portals back by the inverse of
-/// `transform_inverse_of` and match them against `experiment`'s final portals.
+/// Which portals a comparison ([`CompareTo`]) matches.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PortalSet {
+    /// The portal pairs of the final partition (at the experiment's stop).
+    #[default]
+    Final,
+    /// The separating portals at the room-separation state ([`eval::Separation`]): needs a
+    /// ground truth on both sides.
+    Separating,
+}
+
+impl fmt::Display for PortalSet {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            PortalSet::Final => "final",
+            PortalSet::Separating => "separating",
+        })
+    }
+}
+
+/// The rotation check: map this experiment's portals (final or separating) back by the
+/// inverse of `transform_inverse_of` and match them against the same set of `experiment`.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct CompareTo {
     /// The other experiment's name.
     pub experiment: String,
+    /// Which portals are compared (default: final).
+    pub portals: PortalSet,
     /// The transforms whose inverse maps this experiment's model onto the other's
     /// (normally a copy of this experiment's `transforms`).
     pub transform_inverse_of: Vec<Transform>,
@@ -274,8 +299,8 @@ pub struct Definition {
     pub settings: Settings,
     /// The thesis's figures (free-form numbers and strings).
     pub thesis: Map<String, Value>,
-    /// The rotation check, if any.
-    pub compare_to: Option<CompareTo>,
+    /// The rotation checks (`compare_to`: one object or a list), in order.
+    pub compare_to: Vec<CompareTo>,
 }
 
 /// Reads a field with serde, naming it in the error.
@@ -348,6 +373,52 @@ fn parse_transforms(file: &Path, v: Option<&Value>, path: &str) -> Result<Vec<Tr
     Ok(out)
 }
 
+/// One `compare_to` object; `path` names it in errors (`compare_to` or `compare_to[i]`).
+fn parse_compare(file: &Path, c: &Value, path: &str) -> Result<CompareTo, ExperimentError> {
+    let invalid = |field: &str, message: String| ExperimentError::Invalid {
+        file: file.to_path_buf(),
+        field: field.to_string(),
+        message,
+    };
+    let co = c
+        .as_object()
+        .ok_or_else(|| invalid(path, "expected an object or a list of objects".into()))?;
+    unknown_fields(file, co, &COMPARE_FIELDS, &format!("{path}."))?;
+    let experiment: String = field(file, co, "experiment")
+        .map_err(|_| invalid(&format!("{path}.experiment"), "expected a string".into()))?
+        .ok_or_else(|| invalid(&format!("{path}.experiment"), "missing (required)".into()))?;
+    let portals: PortalSet = field(file, co, "portals")
+        .map_err(|_| {
+            invalid(
+                &format!("{path}.portals"),
+                "expected \"final\" or \"separating\"".into(),
+            )
+        })?
+        .unwrap_or_default();
+    let tol = |key: &str, default: f64| -> Result<f64, ExperimentError> {
+        let f = format!("{path}.{key}");
+        let x: f64 = field(file, co, key)
+            .map_err(|_| invalid(&f, "expected a number".into()))?
+            .unwrap_or(default);
+        if x.is_finite() && x > 0.0 {
+            Ok(x)
+        } else {
+            Err(invalid(&f, "expected a positive number".into()))
+        }
+    };
+    Ok(CompareTo {
+        experiment,
+        portals,
+        transform_inverse_of: parse_transforms(
+            file,
+            co.get("transform_inverse_of"),
+            &format!("{path}.transform_inverse_of"),
+        )?,
+        distance_tolerance: tol("distance_tolerance", DEFAULT_DISTANCE_TOLERANCE)?,
+        area_tolerance: tol("area_tolerance", DEFAULT_AREA_TOLERANCE)?,
+    })
+}
+
 fn valid_name(n: &str) -> bool {
     !n.is_empty() && !n.starts_with('.') && n.chars().all(|c| c.is_ascii_alphanumeric() || "_-.".contains(c))
 }
@@ -412,37 +483,13 @@ impl Definition {
             return Err(invalid(&format!("thesis.{k}"), "expected a number or a string".into()));
         }
         let compare_to = match obj.get("compare_to") {
-            None => None,
-            Some(c) => {
-                let co = c
-                    .as_object()
-                    .ok_or_else(|| invalid("compare_to", "expected an object".into()))?;
-                unknown_fields(file, co, &COMPARE_FIELDS, "compare_to.")?;
-                let experiment: String = field(file, co, "experiment")
-                    .map_err(|_| invalid("compare_to.experiment", "expected a string".into()))?
-                    .ok_or_else(|| invalid("compare_to.experiment", "missing (required)".into()))?;
-                let tol = |key: &str, default: f64| -> Result<f64, ExperimentError> {
-                    let f = format!("compare_to.{key}");
-                    let x: f64 = field(file, co, key)
-                        .map_err(|_| invalid(&f, "expected a number".into()))?
-                        .unwrap_or(default);
-                    if x.is_finite() && x > 0.0 {
-                        Ok(x)
-                    } else {
-                        Err(invalid(&f, "expected a positive number".into()))
-                    }
-                };
-                Some(CompareTo {
-                    experiment,
-                    transform_inverse_of: parse_transforms(
-                        file,
-                        co.get("transform_inverse_of"),
-                        "compare_to.transform_inverse_of",
-                    )?,
-                    distance_tolerance: tol("distance_tolerance", DEFAULT_DISTANCE_TOLERANCE)?,
-                    area_tolerance: tol("area_tolerance", DEFAULT_AREA_TOLERANCE)?,
-                })
-            }
+            None => Vec::new(),
+            Some(Value::Array(list)) => list
+                .iter()
+                .enumerate()
+                .map(|(i, c)| parse_compare(file, c, &format!("compare_to[{i}]")))
+                .collect::<Result<Vec<_>, _>>()?,
+            Some(c) => vec![parse_compare(file, c, "compare_to")?],
         };
         Ok(Definition {
             file: file.to_path_buf(),
@@ -644,6 +691,9 @@ pub struct Outcome {
     pub eval: eval::Evaluation,
     /// Its final portals, for comparisons.
     pub portals: Vec<eval::PortalSummary>,
+    /// Its separating portals at the room-separation state (`None` without a ground
+    /// truth), for comparisons.
+    pub separating: Option<Vec<eval::PortalSummary>>,
     /// Its results directory.
     pub dir: PathBuf,
 }
@@ -663,10 +713,12 @@ pub fn run_experiment(def: &Definition, root: &Path, out: &Path) -> Result<Outco
     p.stages.push(("write outputs".into(), t1.elapsed().as_secs_f64()));
     let ev = eval::evaluate(def, &model, truth.as_ref(), &mut p, t0)?;
     let portals = eval::portal_summaries(&p.doc);
+    let separating = eval::separating_summaries(&ev);
     Ok(Outcome {
         def: def.clone(),
         eval: ev,
         portals,
+        separating,
         dir,
     })
 }
@@ -693,6 +745,51 @@ pub struct Report {
     pub seconds: f64,
     /// Files written besides the experiments' own (summary, README).
     pub files: Vec<PathBuf>,
+}
+
+/// The portals of `o` that a comparison of kind `set` matches.
+fn portal_set(o: &Outcome, set: PortalSet) -> Result<&[eval::PortalSummary]> {
+    match set {
+        PortalSet::Final => Ok(&o.portals),
+        PortalSet::Separating => o.separating.as_deref().with_context(|| {
+            format!(
+                "compare_to: experiment {:?} has no ground truth, so no separating portals",
+                o.def.name
+            )
+        }),
+    }
+}
+
+/// The portals (and the model's bounding-box diagonal) of an experiment of an earlier run:
+/// final portals from its `result.json`, separating ones from its `evaluation.json`.
+fn earlier_portals(out: &Path, c: &CompareTo) -> Result<(Vec<eval::PortalSummary>, f64)> {
+    let dir = out.join(&c.experiment);
+    let missing = || {
+        format!(
+            "compare_to: experiment {:?} is neither in this run nor in {}",
+            c.experiment,
+            out.display()
+        )
+    };
+    match c.portals {
+        PortalSet::Final => {
+            let doc = output::read_result(&dir).with_context(missing)?;
+            Ok((eval::portal_summaries(&doc), eval::diagonal(&doc.model.bbox)))
+        }
+        PortalSet::Separating => {
+            let path = dir.join("evaluation.json");
+            let text = std::fs::read_to_string(&path).with_context(missing)?;
+            let ev: eval::Evaluation =
+                serde_json::from_str(&text).with_context(|| format!("cannot parse {}", path.display()))?;
+            let ps = eval::separating_summaries(&ev).with_context(|| {
+                format!(
+                    "compare_to: {} has no separating portals (no ground truth, or an older schema)",
+                    path.display()
+                )
+            })?;
+            Ok((ps, ev.model.bbox_diagonal))
+        }
+    }
 }
 
 /// Runs the definitions in order, then the rotation checks, then writes every
@@ -730,36 +827,31 @@ pub fn run_all(defs: Vec<Result<Definition, ExperimentError>>, opts: &RunOptions
             }
         }
     }
-    // Rotation checks, against an experiment of this run or an earlier run's result.json.
+    // Rotation checks, against an experiment of this run or an earlier run's files.
     let mut checks = Vec::new();
     for (i, o) in outcomes.iter().enumerate() {
-        let Some(c) = &o.def.compare_to else { continue };
-        let r = match outcomes.iter().find(|x| x.def.name == c.experiment) {
-            Some(other) => Ok(eval::rotation_check(
-                c,
-                &o.portals,
-                &other.portals,
-                other.eval.model.bbox_diagonal,
-            )),
-            None => output::read_result(&opts.out.join(&c.experiment))
-                .with_context(|| {
-                    format!(
-                        "compare_to: experiment {:?} is neither in this run nor in {}",
-                        c.experiment,
-                        opts.out.display()
-                    )
-                })
-                .map(|doc| {
-                    let diag = eval::diagonal(&doc.model.bbox);
-                    eval::rotation_check(c, &o.portals, &eval::portal_summaries(&doc), diag)
-                }),
-        };
+        if o.def.compare_to.is_empty() {
+            continue;
+        }
+        let r: Result<Vec<eval::RotationCheck>> = o
+            .def
+            .compare_to
+            .iter()
+            .map(|c| {
+                let ours = portal_set(o, c.portals)?;
+                let (theirs, diag) = match outcomes.iter().find(|x| x.def.name == c.experiment) {
+                    Some(other) => (portal_set(other, c.portals)?.to_vec(), other.eval.model.bbox_diagonal),
+                    None => earlier_portals(&opts.out, c)?,
+                };
+                Ok(eval::rotation_check(c, ours, &theirs, diag))
+            })
+            .collect();
         checks.push((i, r));
     }
     let mut failed_idx = Vec::new();
     for (i, r) in checks {
         match r {
-            Ok(rc) => outcomes[i].eval.rotation_check = Some(rc),
+            Ok(rc) => outcomes[i].eval.rotation_checks = rc,
             Err(e) => {
                 let d = &outcomes[i].def;
                 let e = ExperimentError::Failed {

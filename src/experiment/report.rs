@@ -1,8 +1,8 @@
 //! `results/summary.csv` (one row per experiment) and `results/README.md` (the thesis's
 //! figures beside ours, with the weight curves).
 
-use super::eval::Evaluation;
-use super::{Report, RunOptions};
+use super::eval::{Evaluation, RotationCheck, Separation, SeparationDoorway};
+use super::{PortalSet, Report, RunOptions};
 use crate::model::write::write_atomic;
 use anyhow::{Context, Result};
 use serde_json::Value;
@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Columns of `summary.csv`.
-pub const COLUMNS: [&str; 34] = [
+pub const COLUMNS: [&str; 40] = [
     "experiment",
     "status",
     "model",
@@ -42,8 +42,14 @@ pub const COLUMNS: [&str; 34] = [
     "rooms_isolated_at_jump",
     "doorways",
     "doorways_matched",
+    "separation_collapses",
+    "separating_portals",
+    "doorways_matched_at_separation",
+    "doorways_by_position_at_separation",
     "rotation_ours_matched",
     "rotation_theirs_matched",
+    "separating_compare_ours_matched",
+    "separating_compare_theirs_matched",
     "seconds",
     "definition",
 ];
@@ -84,7 +90,9 @@ fn transforms_text(e: &Evaluation) -> String {
 fn csv_row(e: &Evaluation) -> Vec<String> {
     let t = e.truth.as_ref();
     let j = t.and_then(|t| t.weight_jump.as_ref());
-    let r = e.rotation_check.as_ref();
+    let r = first_check(e, PortalSet::Final);
+    let rs = first_check(e, PortalSet::Separating);
+    let sep = t.and_then(|t| t.separation.as_ref());
     vec![
         e.experiment.clone(),
         "ok".into(),
@@ -116,11 +124,83 @@ fn csv_row(e: &Evaluation) -> Vec<String> {
         opt(j.map(|j| j.rooms_isolated_before)),
         opt(t.map(|t| t.doorways)),
         opt(t.map(|t| t.doorways_matched)),
+        opt(sep.map(|s| s.collapses)),
+        opt(sep.map(|s| s.separating_portals)),
+        opt(sep.map(|s| s.doorways_matched)),
+        opt(sep.map(|s| s.doorways_matched_by_position)),
         opt(r.map(|r| format!("{}/{}", r.ours_matched, r.ours_total))),
         opt(r.map(|r| format!("{}/{}", r.theirs_matched, r.theirs_total))),
+        opt(rs.map(|r| format!("{}/{}", r.ours_matched, r.ours_total))),
+        opt(rs.map(|r| format!("{}/{}", r.theirs_matched, r.theirs_total))),
         format!("{:.3}", e.timings.total_seconds),
         e.definition.clone(),
     ]
+}
+
+/// The first rotation check of this kind.
+fn first_check(e: &Evaluation, set: PortalSet) -> Option<&RotationCheck> {
+    e.rotation_checks.iter().find(|r| r.portals == set)
+}
+
+/// Median of finite values (`None` when there are none).
+fn median(mut v: Vec<f64>) -> Option<f64> {
+    v.retain(|x| x.is_finite());
+    v.sort_by(f64::total_cmp);
+    match v.len() {
+        0 => None,
+        n if n % 2 == 1 => Some(v[n / 2]),
+        n => Some(0.5 * (v[n / 2 - 1] + v[n / 2])),
+    }
+}
+
+/// The side-by-side text of the separating portals.
+fn separating_text(s: &Separation, rooms: usize) -> String {
+    format!(
+        "{} separating portals after {} collapses ({}): {} cells, {} of {} rooms isolated, {} at doorways",
+        s.separating_portals, s.collapses, s.state, s.cells, s.rooms_isolated, rooms, s.portals_at_doorways
+    )
+}
+
+/// The side-by-side text of the doorways at separation.
+fn separation_doorways_text(s: &Separation, doorways: usize, diag: f64) -> String {
+    let mut out = format!(
+        "{} of {} joined by a separating portal between the rooms' cells; {} of those within {}% of the diagonal ({})",
+        s.doorways_matched,
+        doorways,
+        s.doorways_matched_by_position,
+        sig(100.0 * s.position_tolerance / diag),
+        sig(s.position_tolerance)
+    );
+    let m = |f: fn(&SeparationDoorway) -> Option<f64>| median(s.per_doorway.iter().filter_map(f).collect());
+    if let (Some(d), Some(pl), Some(ax), Some(t)) = (
+        m(|d| d.distance),
+        m(|d| d.plane_distance),
+        m(|d| d.axis_distance),
+        m(|d| d.tilt_deg),
+    ) {
+        out += &format!(
+            "; medians: {} from the doorway centre, {} from its plane, {} from its axis, tilted {}° from it",
+            sig(d),
+            sig(pl),
+            sig(ax),
+            sig(t)
+        );
+    }
+    out
+}
+
+/// One rotation check, for the tables.
+fn check_text(r: &RotationCheck) -> String {
+    format!(
+        "{}: {}/{} of ours match {}, {}/{} of theirs match ours{}",
+        r.portals,
+        r.ours_matched,
+        r.ours_total,
+        r.against,
+        r.theirs_matched,
+        r.theirs_total,
+        if r.identical { " (identical)" } else { "" }
+    )
 }
 
 fn thesis_text(v: Option<&Value>) -> String {
@@ -180,18 +260,12 @@ pub fn side_by_side(e: &Evaluation) -> Vec<(&'static str, &'static str, String)>
             s
         }
     };
-    let rotation = match &e.rotation_check {
-        None => "—".into(),
-        Some(r) => format!(
-            "{}/{} of ours match {}, {}/{} of theirs match ours{}",
-            r.ours_matched,
-            r.ours_total,
-            r.against,
-            r.theirs_matched,
-            r.theirs_total,
-            if r.identical { " (identical)" } else { "" }
-        ),
+    let rotation = if e.rotation_checks.is_empty() {
+        "—".into()
+    } else {
+        e.rotation_checks.iter().map(check_text).collect::<Vec<_>>().join("; ")
     };
+    let sep = t.and_then(|t| t.separation.as_ref().map(|s| (t, s)));
     vec![
         ("vertices", "vertices", e.model.vertices.to_string()),
         ("triangles", "triangles", e.model.triangles.to_string()),
@@ -235,6 +309,18 @@ pub fn side_by_side(e: &Evaluation) -> Vec<(&'static str, &'static str, String)>
                     "{} of {} ({} of the portal pairs at doorways)",
                     t.doorways_matched, t.doorways, t.portals_at_doorways
                 )
+            }),
+        ),
+        (
+            "separating portals (room-separation state)",
+            "separating_portals",
+            sep.map_or_else(na, |(t, s)| separating_text(s, t.rooms)),
+        ),
+        (
+            "doorways matched at separation",
+            "doorways_at_separation",
+            sep.map_or_else(na, |(t, s)| {
+                separation_doorways_text(s, t.doorways, e.model.bbox_diagonal)
             }),
         ),
         ("rotation check", "rotation_check", rotation),
@@ -325,15 +411,19 @@ fn readme_text(report: &Report, opts: &RunOptions, seconds: f64) -> String {
     let _ = writeln!(s, "## Overview\n");
     let _ = writeln!(
         s,
-        "| experiment | model | heuristic / estimator | stop | active cells | final cells | portal pairs | rooms isolated: at the stop (before the first room join) | weight jump (before → at) | spike cells | doorways matched | rotation check | seconds |"
+        "| experiment | model | heuristic / estimator | stop | active cells | final cells | portal pairs | rooms isolated: at the stop (before the first room join) | weight jump (before → at) | spike cells | doorways matched | separating portals | doorways matched at separation (by position) | rotation check | seconds |"
     );
-    let _ = writeln!(s, "|---|---|---|---|---:|---:|---:|---:|---|---:|---:|---|---:|");
+    let _ = writeln!(
+        s,
+        "|---|---|---|---|---:|---:|---:|---:|---|---:|---:|---:|---:|---|---:|"
+    );
     for o in &report.outcomes {
         let e = &o.eval;
         let t = e.truth.as_ref();
+        let sep = t.and_then(|t| t.separation.as_ref());
         let _ = writeln!(
             s,
-            "| [{n}]({n}/) | {} | {} / {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} |",
+            "| [{n}]({n}/) | {} | {} / {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} |",
             cell(&e.model.source),
             e.settings.heuristic,
             e.settings.estimator,
@@ -355,10 +445,25 @@ fn readme_text(report: &Report, opts: &RunOptions, seconds: f64) -> String {
             )),
             t.map_or("—".into(), |t| t.spike_cells.count.to_string()),
             t.map_or("—".into(), |t| format!("{}/{}", t.doorways_matched, t.doorways)),
-            e.rotation_check.as_ref().map_or("—".into(), |r| format!(
-                "{}/{} · {}/{}",
-                r.ours_matched, r.ours_total, r.theirs_matched, r.theirs_total
+            sep.map_or("—".into(), |s| s.separating_portals.to_string()),
+            t.zip(sep).map_or("—".into(), |(t, s)| format!(
+                "{}/{} ({})",
+                s.doorways_matched, t.doorways, s.doorways_matched_by_position
             )),
+            if e.rotation_checks.is_empty() {
+                "—".into()
+            } else {
+                e.rotation_checks
+                    .iter()
+                    .map(|r| {
+                        format!(
+                            "{} {}/{} · {}/{}",
+                            r.portals, r.ours_matched, r.ours_total, r.theirs_matched, r.theirs_total
+                        )
+                    })
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            },
             e.timings.total_seconds,
             n = e.experiment,
         );
