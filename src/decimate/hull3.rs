@@ -158,6 +158,7 @@ impl Hull3 {
     }
 
     /// Enclosed volume (0 for a flat hull).
+    #[cfg(test)]
     pub fn volume(&self) -> f64 {
         let Some(r) = self.pts.first() else { return 0.0 };
         let mut v6 = 0.0;
@@ -168,19 +169,6 @@ impl Hull3 {
             v6 += dot(&a, &cross(&b, &c));
         }
         v6 / 6.0
-    }
-
-    /// Axis-aligned bounding box.
-    pub fn aabb(&self) -> (P3, P3) {
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        for p in &self.pts {
-            for k in 0..3 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
-        }
-        (lo, hi)
     }
 
     /// Number of triangles.

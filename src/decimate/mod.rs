@@ -42,7 +42,7 @@
 //! skipping them changes nothing. A re-weighed pair recomputes only the projected areas
 //! whose inputs changed: both sides when its portal set (so its plane) changed; otherwise
 //! only the survivor's — for `union` incrementally, as the stored area plus what the
-//! absorbed blocks add ([`estimator`]) — and the neighbour's stored area is reused.
+//! absorbed cell's front faces add ([`estimator`]) — and the neighbour's stored area is reused.
 //! The test `incremental_projected_areas_equal_from_scratch_areas` checks every recorded
 //! area against a from-scratch computation on the replayed state.
 //!
@@ -219,7 +219,7 @@ pub struct DecimationStats {
     pub reweighs_skipped: u64,
     /// Queue counters.
     pub queue: QueueStats,
-    /// Largest per-cell estimator state (hull vertices, summed over blocks for `union`).
+    /// Largest per-cell estimator state (3D hull vertices; boundary faces for `union`).
     pub max_shape_vertices: usize,
     /// Seconds spent on initial weights.
     pub init_seconds: f64,
@@ -466,7 +466,7 @@ impl<'a> Engine<'a> {
                 name: id,
                 pieces: vec![id],
                 volume: c.poly.volume(),
-                shape: Shape::piece(est, &c.poly.vertices(), c.poly.volume()),
+                shape: Shape::piece(est, &c.poly),
                 nbrs: DetMap::default(),
             }));
         }
@@ -701,9 +701,6 @@ impl<'a> Engine<'a> {
             // The weight may be unchanged, but the tie-break part of the key (the smaller
             // volume, the names) may still have changed.
             self.requeue(q);
-        }
-        if let Some(c) = self.live[s as usize].as_mut() {
-            c.shape.settle(&self.cx.tol);
         }
         let a = nx.min(ny);
         let b = nx.max(ny);

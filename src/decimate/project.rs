@@ -278,8 +278,8 @@ impl<'a> Prepared<'a> {
 
     /// As [`Prepared::new`], without the polygons that lie inside one of the
     /// [`PRUNE_AGAINST`] largest kept ones (within the collinearity tolerance): they change
-    /// neither the union nor its boundary. Projections of a room's blocks onto a wall plane
-    /// are mostly hidden behind a few large ones, so this removes most of them cheaply.
+    /// neither the union nor its boundary. Projections of small faces are often hidden behind
+    /// a few large ones, so this removes many of them cheaply.
     fn pruned(polys: &'a [Vec<P2>]) -> Self {
         let all = Prepared::new(polys);
         if all.polys.len() <= 2 {
