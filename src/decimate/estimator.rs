@@ -124,8 +124,6 @@ struct Face {
     poly: ConvexPolygon,
     /// Area vector (normal × area), outward.
     area: P3,
-    /// Its length.
-    area_len: f64,
     /// Bounding sphere of the vertices.
     centre: P3,
     radius: f64,
@@ -149,7 +147,6 @@ impl Face {
             .map(|v| (0..3).map(|k| (v[k] - centre[k]).powi(2)).sum::<f64>().sqrt())
             .fold(0.0, f64::max);
         Face {
-            area_len: dot_n(&area, &area).sqrt(),
             area,
             centre,
             radius,
@@ -158,12 +155,11 @@ impl Face {
         }
     }
 
-    /// The projection if the face faces along the frame's direction. Faces (nearly)
-    /// parallel to the direction project to slivers: their area is at most [`FRONT_REL`]
-    /// of the face's, but their collinear edges would only exercise the union's tie rules.
+    /// The projection if the face faces along the frame's direction (its outward area
+    /// vector has a positive component along it). Faces seen edge-on project to slivers,
+    /// which [`union_area`] drops by its width test.
     fn front(&self, frame: &Frame) -> Option<Vec<P2>> {
-        (dot_n(&self.area, &frame.n) > FRONT_REL * self.area_len)
-            .then(|| hull2(self.poly.verts.iter().map(|p| frame.project(p)).collect()))
+        (dot_n(&self.area, &frame.n) > 0.0).then(|| hull2(self.poly.verts.iter().map(|p| frame.project(p)).collect()))
     }
 
     /// Whether the projection may meet the box `(lo, hi)` (bounding-sphere test).
@@ -270,10 +266,6 @@ fn box2<'a>(pts: impl Iterator<Item = &'a P2>) -> (P2, P2) {
     }
     (lo, hi)
 }
-
-/// A boundary face counts as front-facing when the cosine between its normal and the
-/// projection direction exceeds this.
-const FRONT_REL: f64 = 1e-7;
 
 fn dot_n(a: &P3, b: &P3) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]

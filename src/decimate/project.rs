@@ -256,14 +256,35 @@ impl BoxGrid {
 }
 
 impl<'a> Prepared<'a> {
+    /// The polygons with at least 3 vertices and positive area that are not *slivers*:
+    /// a polygon whose width is within the collinearity tolerance of the input's extent
+    /// has all its edges on one line as far as the tie rules can tell, and they would
+    /// count it as having an inside on both sides of that line (which removed a real
+    /// polygon's edge that the sliver lay along). Dropping one changes the union by at most
+    /// its own area, under `2 · tolerance · diameter`.
     fn new(polys: &'a [Vec<P2>]) -> Self {
-        let polys: Vec<&[P2]> = polys
+        let mut kept: Vec<(&[P2], (P2, P2), f64)> = polys
             .iter()
-            .filter(|p| p.len() >= 3 && polygon_area(p) > 0.0)
-            .map(|p| p.as_slice())
+            .filter(|p| p.len() >= 3)
+            .map(|p| (p.as_slice(), bbox2(p), polygon_area(p)))
+            .filter(|e| e.2 > 0.0)
             .collect();
-        let boxes = polys.iter().map(|p| bbox2(p)).collect();
-        Prepared::with(polys, boxes)
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for (_, b, _) in &kept {
+            for k in 0..2 {
+                lo[k] = lo[k].min(b.0[k]);
+                hi[k] = hi[k].max(b.1[k]);
+            }
+        }
+        let tol = UNION_COLLINEAR_REL * (hi[0] - lo[0]).max(hi[1] - lo[1]);
+        // Width ≤ 2·area/diameter (a convex polygon holds a triangle on its diameter),
+        // and the diameter is at least the box diagonal over √2.
+        kept.retain(|(_, b, area)| {
+            let diag = ((b.1[0] - b.0[0]).powi(2) + (b.1[1] - b.0[1]).powi(2)).sqrt();
+            2.0 * std::f64::consts::SQRT_2 * area > tol * diag
+        });
+        let boxes = kept.iter().map(|e| e.1).collect();
+        Prepared::with(kept.into_iter().map(|e| e.0).collect(), boxes)
     }
 
     fn with(polys: Vec<&'a [P2]>, boxes: Vec<(P2, P2)>) -> Self {
@@ -440,8 +461,10 @@ fn edge_integral(a: &P2, b: &P2, c: &P2, keep: Option<&[(f64, f64)]>, drop: &[(f
 /// [`UNION_COLLINEAR_REL`] of the input extent) is decided by a tie rule: polygons on the
 /// *same* side (same edge direction) overlap there, and only the lower-indexed one keeps
 /// the shared boundary; polygons on *opposite* sides abut there, and the shared part is
-/// interior (both contributions would cancel anyway). Polygons with fewer than 3 vertices
-/// or zero area are ignored.
+/// interior (both contributions would cancel anyway). Polygons with fewer than 3 vertices,
+/// zero area, or a width within that tolerance (slivers, which the tie rules would read as
+/// inside on both sides of their line) are ignored; a sliver's own area is below
+/// `2 · tolerance · diameter`.
 ///
 /// Polygons inside one of the largest others are dropped first ([`Prepared::pruned`]).
 /// Cost: `O(Σ_P |P| · Σ_{Q meets P} |Q|)` over the remaining polygons — quadratic in the
@@ -595,6 +618,88 @@ mod tests {
         assert_eq!(with_grid.to_bits(), plain.to_bits(), "{with_grid} vs {plain}");
         assert_eq!(delta_grid.to_bits(), delta_plain.to_bits());
         assert!(with_grid > 10.0 && with_grid < 121.0);
+    }
+
+    /// Regression (found by projecting boundary faces nearly edge-on, rotated four-room
+    /// scene): two triangles sharing an edge, plus two sliver triangles of area ~1e-13
+    /// lying along their bottom edges. The tie rules read each sliver as an inside on both
+    /// sides of its line and dropped the real bottom edges: 4.1346 instead of 4.5962
+    /// (reference: shapely's `unary_union` of the same polygons).
+    #[test]
+    fn sliver_polygons_along_edges_do_not_remove_them() {
+        let polys: Vec<Vec<P2>> = vec![
+            vec![
+                [-2.1943763778583962, -1.0884449054946372],
+                [-0.4567131227837584, -0.7635966148063513],
+                [0.9134262455671704, 1.52719322961295],
+            ],
+            vec![
+                [-2.1943763778583962, -1.0884449054946372],
+                [1.280950132291134, -0.4387483241183688],
+                [-0.4567131227837584, -0.7635966148063513],
+            ],
+            vec![
+                [-0.4567131227837584, -0.7635966148063513],
+                [1.280950132291134, -0.4387483241183688],
+                [2.3235480853359265, -0.2438393497054296],
+            ],
+            vec![
+                [-0.4567131227837584, -0.7635966148063513],
+                [2.3235480853359265, -0.2438393497054296],
+                [0.9134262455671704, 1.52719322961295],
+            ],
+        ];
+        let a = union_area(&polys);
+        assert!((a - 4.596194077712642).abs() < 1e-12, "{a}");
+        let (u, v) = polys.split_at(2);
+        let d = union_area_delta(u, v);
+        assert!((union_area(u) + d - a).abs() < 1e-12);
+    }
+
+    /// Random triangles, each edge shadowed by a sliver lying along its line (overlapping
+    /// the edge, running past its ends, or both): the slivers add at most their own
+    /// (~1e-12) area, so the union must not move by more than that.
+    #[test]
+    fn slivers_do_not_change_unions_of_random_triangles() {
+        let mut rng = crate::delaunay::SplitMix64(7);
+        let mut unit = || (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
+        for _ in 0..50 {
+            let mut clean: Vec<Vec<P2>> = Vec::new();
+            for _ in 0..8 {
+                let (x, y) = (4.0 * unit(), 4.0 * unit());
+                clean.push(hull2(vec![
+                    [x, y],
+                    [x + unit(), y + 0.2 * unit()],
+                    [x + 0.3 * unit(), y + unit()],
+                ]));
+            }
+            let mut slivers: Vec<Vec<P2>> = Vec::new();
+            for t in &clean {
+                for k in 0..3 {
+                    let (a, b) = (t[k], t[(k + 1) % 3]);
+                    let at = |s: f64, off: f64| {
+                        [
+                            a[0] + s * (b[0] - a[0]) - off * (b[1] - a[1]),
+                            a[1] + s * (b[1] - a[1]) + off * (b[0] - a[0]),
+                        ]
+                    };
+                    // Two points on the edge's line and one within 1e-12 of it, from half
+                    // an edge before it to half an edge past it; every other edge keeps
+                    // its own first vertex.
+                    let p = if k % 2 == 0 { a } else { at(2.0 * unit() - 0.5, 0.0) };
+                    let q = at(2.0 * unit() - 0.5, 0.0);
+                    let r = at(2.0 * unit() - 0.5, (unit() - 0.5) * 2e-12);
+                    let sliver = hull2(vec![p, q, r]);
+                    if sliver.len() == 3 {
+                        slivers.push(sliver);
+                    }
+                }
+            }
+            // Slivers first: the tie rules favour lower indices.
+            let noisy: Vec<Vec<P2>> = slivers.into_iter().chain(clean.iter().cloned()).collect();
+            let (x, y) = (union_area(&clean), union_area(&noisy));
+            assert!((x - y).abs() < 1e-9, "clean {x} with slivers {y}");
+        }
     }
 
     #[test]
