@@ -87,7 +87,8 @@ enum Cmd {
         /// none (one cell per connected region; records the whole weight curve).
         #[arg(long, default_value = "threshold:3")]
         stop: portalfind::decimate::StopRule,
-        /// Output directory (created if missing).
+        /// Output directory (created, with missing parents, if it does not exist; a run
+        /// that fails removes the directories it created).
         #[arg(long)]
         out: PathBuf,
         /// How cells are made: delaunay (the thesis's method: tetrahedra split by the
@@ -99,6 +100,12 @@ enum Cmd {
         /// always better: the choice is greedy).
         #[arg(long, default_value_t = portalfind::bsp::DEFAULT_MAX_CANDIDATES)]
         bsp_candidates: usize,
+        /// Also draw intermediate states: for each count N (comma-separated, e.g.
+        /// 2000,500,200), the cells when N were left, rebuilt by replaying the recorded
+        /// collapses, as OUT/cells_N.svg. Each N must lie between the active cell count
+        /// and where the stop rule ended the run.
+        #[arg(long, value_delimiter = ',')]
+        snapshots: Vec<usize>,
     },
     /// Run experiment definitions (the thesis reproduction): every `*.json` of a directory,
     /// or one file. Each experiment writes OUT/NAME/ (result.json, evaluation.json, weight
@@ -117,10 +124,17 @@ enum Cmd {
     },
     /// For each x,y,z row of POINTS (CSV), print the id of the final cell of a run (read
     /// from DIR/result.json) that contains the point, or -1.
+    ///
+    /// Output: one line per point, in input order: the cell id (the `id` of a cell in
+    /// result.json), or -1 when the point lies in no cell (inside a wall, outside the
+    /// model, or in a sliver gap). A point on a boundary shared by several cells gets the
+    /// lowest of their ids. Bad rows are errors naming the file and line, and then nothing
+    /// is printed.
     Locate {
-        /// Output directory of `portalfind run`.
+        /// Output directory of `portalfind run` (or of one experiment).
         dir: PathBuf,
-        /// CSV file of x,y,z rows (an optional header row is skipped).
+        /// CSV file of x,y,z rows; blank lines and lines starting with # are skipped, and
+        /// a first row of names (such as x,y,z) is taken as a header.
         points: PathBuf,
     },
 }
@@ -177,9 +191,15 @@ enum BenchCmd {
         #[arg(long, default_value_t = 1)]
         repeat: usize,
     },
-    /// Run one case in this process and print it as JSON (used by `bench delaunay`).
-    #[command(hide = true)]
-    One { kind: String, n: usize },
+    /// Run one case in this process and print it as JSON (what `bench delaunay` runs in a
+    /// child process per case). With the environment variable PF_BENCH_STATS=1 it also
+    /// prints the per-phase times and walk/cavity statistics to stderr.
+    One {
+        /// Input kind: uniform, grid, boxes or urot (rotated by 7°, 8°, 9° and offset by 1e6).
+        kind: String,
+        /// Number of points (grid: a k × k × k lattice with k³ close to it).
+        n: usize,
+    },
 }
 
 /// Errors are printed as their context chain (file, line, element, fix), without a
@@ -237,6 +257,7 @@ fn run(cli: Cli) -> Result<()> {
             out,
             subdivision,
             bsp_candidates,
+            snapshots,
         } => run_decimation(
             &model,
             heuristic,
@@ -244,6 +265,7 @@ fn run(cli: Cli) -> Result<()> {
             stop,
             &out,
             Cells::new(subdivision, bsp_candidates),
+            &snapshots,
         ),
         Cmd::Locate { dir, points } => locate(&dir, &points),
         Cmd::Experiment { path, out, only } => experiment(&path, out, &only),
@@ -356,7 +378,7 @@ fn build_complex(m: &portalfind::model::Model, path: &std::path::Path, how: Cell
 
 fn load(path: &std::path::Path) -> Result<portalfind::model::Model> {
     let t0 = Instant::now();
-    let m = portalfind::model::load_model(path).with_context(|| format!("cannot load model {}", path.display()))?;
+    let m = portalfind::model::load_model(path).context("cannot load the model")?;
     eprintln!("loaded {} in {:.3} s", path.display(), t0.elapsed().as_secs_f64());
     Ok(m)
 }
@@ -445,11 +467,21 @@ fn complex(path: &std::path::Path, validate: bool, pointfile: Option<&std::path:
         ("cells after splitting", s.cells_after_split.to_string()),
         (
             "exterior cells removed",
-            format!("{} in {} regions", s.exterior_cells_removed, s.exterior_regions),
+            format!(
+                "{} in {} region{}",
+                s.exterior_cells_removed,
+                s.exterior_regions,
+                if s.exterior_regions == 1 { "" } else { "s" }
+            ),
         ),
         (
             "active cells",
-            format!("{} in {} regions", s.active_cells, s.interior_regions),
+            format!(
+                "{} in {} region{}",
+                s.active_cells,
+                s.interior_regions,
+                if s.interior_regions == 1 { "" } else { "s" }
+            ),
         ),
         ("portal pairs", s.portal_pairs.to_string()),
         ("portal polygons", s.portal_polygons.to_string()),
@@ -625,10 +657,35 @@ fn run_decimation(
     stop: portalfind::decimate::StopRule,
     out: &std::path::Path,
     how: Cells,
+    snapshot_counts: &[usize],
+) -> Result<()> {
+    // Fail before the work if the output directory cannot be created; if this run created
+    // it and then fails, remove it again (the writers already leave no files behind).
+    let created: Vec<&std::path::Path> = out
+        .ancestors()
+        .take_while(|a| !a.as_os_str().is_empty() && !a.exists())
+        .collect();
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create output directory {}", out.display()))?;
+    let r = run_decimation_into(path, heuristic, estimator, stop, out, how, snapshot_counts);
+    if r.is_err() {
+        // Innermost first; `remove_dir` only removes empty directories.
+        for d in created {
+            let _ = std::fs::remove_dir(d);
+        }
+    }
+    r
+}
+
+fn run_decimation_into(
+    path: &std::path::Path,
+    heuristic: portalfind::decimate::HeuristicKind,
+    estimator: portalfind::decimate::Estimator,
+    stop: portalfind::decimate::StopRule,
+    out: &std::path::Path,
+    how: Cells,
+    snapshot_counts: &[usize],
 ) -> Result<()> {
     use portalfind::decimate::{Decimation, QueueMode, Settings};
-    // Fail before the work if the output directory cannot be created.
-    std::fs::create_dir_all(out).with_context(|| format!("cannot create output directory {}", out.display()))?;
     let t0 = Instant::now();
     let m = load(path)?;
     let mut stages: Vec<(String, f64)> = vec![("load model".into(), t0.elapsed().as_secs_f64())];
@@ -672,7 +729,13 @@ fn run_decimation(
     doc.settings.subdivision = how.subdivision;
     doc.subdivision_stats = subdivision_stats;
     let t3 = Instant::now();
-    let files = portalfind::output::write_outputs(out, &m, &doc, &dec)?;
+    // Snapshots are rebuilt before anything is written, so a count the run never passed
+    // through fails without leaving files behind.
+    let snapshots = snapshot_counts
+        .iter()
+        .map(|&n| portalfind::output::snapshot(&m, path, &cx, &dec, n))
+        .collect::<Result<Vec<_>>>()?;
+    let files = portalfind::output::write_outputs_with_snapshots(out, &m, &doc, &dec, &snapshots)?;
     stages.push(("write outputs".into(), t3.elapsed().as_secs_f64()));
     println!("{:<44}{:>10}", "stage", "seconds");
     for (name, secs) in &stages {
@@ -697,6 +760,25 @@ fn run_decimation(
     ];
     for (k, v) in rows {
         println!("{k:<44}{v:>10}");
+    }
+    if !snapshots.is_empty() {
+        println!();
+        println!(
+            "{:>10}{:>11}{:>13}{:>13}{:>14}{:>14}",
+            "snapshot", "collapses", "last weight", "next weight", "portal pairs", "portal area"
+        );
+        let w = |x: Option<f64>| x.map_or("-".to_string(), |v| format!("{v:.4}"));
+        for (sn, _) in &snapshots {
+            println!(
+                "{:>10}{:>11}{:>13}{:>13}{:>14}{:>14.4e}",
+                sn.cells,
+                sn.collapses,
+                w(sn.last_weight),
+                w(sn.next_weight),
+                sn.portal_pairs,
+                sn.portal_area
+            );
+        }
     }
     for f in files {
         println!("wrote {}", f.display());

@@ -79,7 +79,8 @@ fn every_definition_parses_with_a_unique_name() {
 fn one_experiment_writes_its_files_and_evaluation() {
     let out = tmp_dir("one");
     let file = repo().join("experiments/01_four_room_optimized.json");
-    let d = Definition::read(&file).unwrap();
+    let mut d = Definition::read(&file).unwrap();
+    d.snapshots = vec![20];
     let r = experiment::run_all(vec![Ok(d)], &opts(&out, true), &mut |_| {});
     assert!(r.failures.is_empty());
     let dir = out.join("four_room_optimized");
@@ -88,6 +89,7 @@ fn one_experiment_writes_its_files_and_evaluation() {
         "weight_curve.csv",
         "weight_curve.png",
         "cells.svg",
+        "cells_20.svg",
         "evaluation.json",
     ] {
         assert!(dir.join(f).is_file(), "{f} missing");
@@ -103,6 +105,14 @@ fn one_experiment_writes_its_files_and_evaluation() {
     assert_eq!(v["decimation"]["final_portal_pairs"], 4);
     assert!(v["timings"]["total_seconds"].as_f64().unwrap() > 0.0);
     assert_eq!(v["thesis"]["tets"], 160);
+    let snap = &v["snapshots"][0];
+    assert_eq!(
+        (snap["cells"].as_u64(), snap["file"].as_str()),
+        (Some(20), Some("cells_20.svg"))
+    );
+    assert_eq!(snap["collapses"], v["complex"]["active_cells"].as_u64().unwrap() - 20);
+    let readme = std::fs::read_to_string(out.join("README.md")).unwrap();
+    assert!(readme.contains("(four_room_optimized/cells_20.svg)"));
     let t = &v["truth"];
     assert_eq!(t["rooms"], 4);
     assert_eq!(t["unlocated_samples"], 0);
@@ -368,6 +378,8 @@ fn unknown_fields_and_bad_values_are_typed_errors_naming_file_and_field() {
             format!(r#"{{{base}, "compare_to": [{{"experiment": "y", "portals": "final"}}, 3]}}"#),
             "compare_to[1]",
         ),
+        (format!(r#"{{{base}, "snapshots": [200, -1]}}"#), "snapshots"),
+        (format!(r#"{{{base}, "snapshots": "200"}}"#), "snapshots"),
     ];
     for (json, field) in &invalid {
         match Definition::parse(f, json) {
@@ -401,8 +413,32 @@ fn a_failing_experiment_is_reported_and_the_others_run() {
         "{msg}"
     );
     assert!(out.join("good/evaluation.json").is_file());
+    assert!(!out.join("missing").exists(), "a failed experiment leaves no directory");
     let csv = std::fs::read_to_string(out.join("summary.csv")).unwrap();
     assert!(csv.lines().any(|l| l.starts_with("missing,\"failed: ")), "{csv}");
+
+    // An experiment that ran before and now fails: its earlier files are removed, not
+    // left looking current; files that are not its outputs stay.
+    let mut now_bad = def(
+        r#"{"name": "good", "model": "four_room_optimized", "heuristic": "aspect", "estimator": "hull", "stop": "cells:4"}"#,
+    );
+    now_bad.model = Definition::parse(
+        Path::new("x.json"),
+        r#"{"name": "x", "model": "models/none/nothing.obj", "heuristic": "aspect", "estimator": "hull", "stop": "none"}"#,
+    )
+    .unwrap()
+    .model;
+    std::fs::write(out.join("good/notes.txt"), "mine").unwrap();
+    let mut lines = Vec::new();
+    let r = experiment::run_all(vec![Ok(now_bad)], &opts(&out, false), &mut |l| {
+        lines.push(l.to_string())
+    });
+    assert_eq!(r.failures.len(), 1);
+    for f in ["result.json", "evaluation.json", "cells.svg", "weight_curve.csv"] {
+        assert!(!out.join("good").join(f).exists(), "stale {f} left");
+    }
+    assert!(out.join("good/notes.txt").is_file());
+    assert!(lines.iter().any(|l| l.contains("removed 5 result files")), "{lines:?}");
 
     // Through the binary: a directory with one bad definition exits non-zero, naming it.
     let defs = tmp_dir("fail-defs");

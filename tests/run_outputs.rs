@@ -286,6 +286,51 @@ fn failed_writes_leave_no_partial_files_and_bad_schemas_are_refused() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// Snapshots are the replayed states: the one at the final count equals the run's final
+/// cells and portals, one at the initial count has every portal pair, and intermediate
+/// ones have as many cells as asked; a count the run never passed through is an error
+/// naming the range, before anything is written.
+#[test]
+fn snapshots_replay_intermediate_states_and_refuse_counts_never_reached() {
+    let (m, cx, d) = two_rooms_run(StopRule::Cells(2));
+    let path = Path::new("two_rooms.obj");
+    let doc = output::result_doc(&m, path, &cx, &d, &[]).unwrap();
+    let initial = d.stats.initial_cells;
+    let middle = d.steps[d.steps.len() / 2].cells_remaining;
+    let snaps: Vec<_> = [initial, middle, 2]
+        .iter()
+        .map(|&n| output::snapshot(&m, path, &cx, &d, n).unwrap())
+        .collect();
+    let (first, _) = &snaps[0];
+    assert_eq!((first.collapses, first.last_weight), (0, None));
+    assert_eq!(first.next_weight, Some(d.steps[0].weight));
+    assert_eq!(first.portal_pairs, d.stats.initial_pairs);
+    let (mid, mid_doc) = &snaps[1];
+    assert_eq!(mid_doc.cells.len(), middle);
+    assert_eq!(mid.collapses, initial - middle);
+    assert_eq!(mid.last_weight, Some(d.steps[mid.collapses - 1].weight));
+    let (last, last_doc) = &snaps[2];
+    assert_eq!((last.collapses, last.next_weight), (d.steps.len(), None));
+    assert_eq!(last_doc.cells.len(), doc.cells.len());
+    assert_eq!(last_doc.portals.len(), doc.portals.len());
+    for (a, b) in last_doc.portals.iter().zip(&doc.portals) {
+        assert_eq!((a.cells, a.area), (b.cells, b.area));
+    }
+    let err = output::snapshot(&m, path, &cx, &d, 1).unwrap_err().to_string();
+    assert!(err.contains(&format!("from {initial} cells down to 2")), "{err}");
+    assert!(output::snapshot(&m, path, &cx, &d, initial + 1).is_err());
+
+    let dir = tmp_dir("snap");
+    let files = output::write_outputs_with_snapshots(&dir, &m, &doc, &d, &snaps).unwrap();
+    assert_eq!(files.len(), 4 + 3);
+    for (s, _) in &snaps {
+        let svg = std::fs::read_to_string(dir.join(&s.file)).unwrap();
+        assert!(svg.starts_with("<svg") && svg.contains(&format!("snapshot at {} cells", s.cells)));
+    }
+    assert!(no_temp_files(&dir));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 fn write_obj(s: &Soup, path: &Path) {
     let mut t = String::new();
     for v in &s.vertices {
@@ -380,5 +425,47 @@ fn binary_run_and_locate() {
         .output()
         .unwrap();
     assert!(!r.status.success());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A run that fails (here: a missing model) removes the output directories it created,
+/// parents included, and leaves an existing directory alone.
+#[test]
+fn failed_run_removes_the_directories_it_created() {
+    let base = tmp_dir("failed-run");
+    let exe = env!("CARGO_BIN_EXE_portalfind");
+    let out = base.join("a").join("b");
+    let r = Command::new(exe)
+        .args(["run", "no/such/model.obj", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(!r.status.success());
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(err.contains("no/such/model.obj"), "{err}");
+    assert!(!base.join("a").exists(), "created directories left behind");
+    assert!(base.is_dir(), "an existing directory is not removed");
+    std::fs::remove_dir_all(&base).unwrap();
+}
+
+/// `locate` input: a non-finite coordinate and an empty file are errors naming the file
+/// (and the line).
+#[test]
+fn point_files_with_non_finite_values_or_no_points_are_errors() {
+    let dir = tmp_dir("points");
+    let nan = dir.join("nan.csv");
+    std::fs::write(&nan, "x,y,z\n1,2,3\n1,NaN,1\n").unwrap();
+    let e = format!("{:#}", output::read_points(&nan).unwrap_err());
+    assert!(e.contains("nan.csv:3") && e.contains("finite"), "{e}");
+    let empty = dir.join("empty.csv");
+    std::fs::write(&empty, "x,y,z\n\n# nothing\n").unwrap();
+    let e = format!("{:#}", output::read_points(&empty).unwrap_err());
+    assert!(e.contains("empty.csv") && e.contains("no points"), "{e}");
+    let ok = dir.join("ok.csv");
+    std::fs::write(&ok, "x, y, z\r\n1, 2, 3\r\n4,5,6\n").unwrap();
+    assert_eq!(
+        output::read_points(&ok).unwrap(),
+        vec![[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]]
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }

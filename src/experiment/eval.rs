@@ -82,6 +82,9 @@ pub struct Evaluation {
     pub rotation_checks: Vec<RotationCheck>,
     /// The thesis's figures, copied from the definition.
     pub thesis: Map<String, Value>,
+    /// Intermediate states drawn as `cells_N.svg` (the definition's `snapshots`).
+    #[serde(default)]
+    pub snapshots: Vec<crate::output::Snapshot>,
 }
 
 /// Model counts.
@@ -1116,6 +1119,7 @@ pub fn evaluate(
         truth: truth_eval,
         rotation_checks: Vec::new(),
         thesis: def.thesis.clone(),
+        snapshots: Vec::new(),
     })
 }
 

@@ -35,7 +35,7 @@ use std::str::FromStr;
 use std::time::Instant;
 
 /// The top-level fields of a definition.
-pub const FIELDS: [&str; 11] = [
+pub const FIELDS: [&str; 12] = [
     "name",
     "description",
     "model",
@@ -47,6 +47,7 @@ pub const FIELDS: [&str; 11] = [
     "stop",
     "thesis",
     "compare_to",
+    "snapshots",
 ];
 
 /// The fields of `compare_to`.
@@ -301,6 +302,9 @@ pub struct Definition {
     pub thesis: Map<String, Value>,
     /// The rotation checks (`compare_to`: one object or a list), in order.
     pub compare_to: Vec<CompareTo>,
+    /// Cell counts whose intermediate states are drawn as `cells_N.svg` (rebuilt by
+    /// replay) and summarised in `evaluation.json`.
+    pub snapshots: Vec<usize>,
 }
 
 /// Reads a field with serde, naming it in the error.
@@ -507,6 +511,7 @@ impl Definition {
             },
             thesis,
             compare_to,
+            snapshots: field(file, obj, "snapshots")?.unwrap_or_default(),
         })
     }
 
@@ -632,7 +637,7 @@ pub fn load_model(def: &Definition, root: &Path) -> Result<(Model, Option<Ground
         }
         ModelSource::File(p) => {
             let path = root.join(p);
-            let m = crate::model::load_model(&path).with_context(|| format!("cannot load model {}", path.display()))?;
+            let m = crate::model::load_model(&path).context("cannot load the model")?;
             if def.transforms.is_empty() {
                 let truth = read_truth(def, root)?;
                 return Ok((m, truth));
@@ -709,9 +714,16 @@ pub fn run_experiment(def: &Definition, root: &Path, out: &Path) -> Result<Outco
     let model_path = PathBuf::from(def.model.to_string());
     let mut p = run_pipeline(&model, &model_path, def.subdivision, &def.settings, stages)?;
     let t1 = Instant::now();
-    output::write_outputs(&dir, &model, &p.doc, &p.dec)?;
+    let snapshots = def
+        .snapshots
+        .iter()
+        .map(|&n| output::snapshot(&model, &model_path, &p.cx, &p.dec, n))
+        .collect::<Result<Vec<_>>>()
+        .with_context(|| format!("{}: field `snapshots`", def.file.display()))?;
+    output::write_outputs_with_snapshots(&dir, &model, &p.doc, &p.dec, &snapshots)?;
     p.stages.push(("write outputs".into(), t1.elapsed().as_secs_f64()));
-    let ev = eval::evaluate(def, &model, truth.as_ref(), &mut p, t0)?;
+    let mut ev = eval::evaluate(def, &model, truth.as_ref(), &mut p, t0)?;
+    ev.snapshots = snapshots.into_iter().map(|(s, _)| s).collect();
     let portals = eval::portal_summaries(&p.doc);
     let separating = eval::separating_summaries(&ev);
     Ok(Outcome {
@@ -792,6 +804,27 @@ fn earlier_portals(out: &Path, c: &CompareTo) -> Result<(Vec<eval::PortalSummary
     }
 }
 
+/// Removes what an experiment writes from its results directory `dir` (and `dir` itself
+/// if that leaves it empty), so that a failed experiment leaves neither a partial set nor
+/// an earlier run's files that look current. Returns how many files were removed.
+fn clear_results(dir: &Path) -> usize {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return 0;
+    };
+    let mut removed = 0;
+    for e in entries.flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        let ours = output::FILES.contains(&name.as_str())
+            || name == "evaluation.json"
+            || (name.starts_with("cells_") && name.ends_with(".svg"));
+        if ours && std::fs::remove_file(e.path()).is_ok() {
+            removed += 1;
+        }
+    }
+    let _ = std::fs::remove_dir(dir);
+    removed
+}
+
 /// Runs the definitions in order, then the rotation checks, then writes every
 /// `evaluation.json` and (with `write_summary`) `summary.csv` and `README.md`. Calls
 /// `log` with a line per finished or failed experiment.
@@ -823,6 +856,13 @@ pub fn run_all(defs: Vec<Result<Definition, ExperimentError>>, opts: &RunOptions
                     message: format!("{e:#}"),
                 };
                 log(&format!("error: {e}"));
+                let removed = clear_results(&opts.out.join(&def.name));
+                if removed > 0 {
+                    log(&format!(
+                        "  removed {removed} result files of an earlier run of {:?}: they no longer match its definition",
+                        def.name
+                    ));
+                }
                 failures.push(e);
             }
         }

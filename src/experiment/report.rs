@@ -530,6 +530,30 @@ fn readme_text(report: &Report, opts: &RunOptions, seconds: f64) -> String {
             "\n![weight curve of {n}]({n}/weight_curve.png)\n\nTop view of the final cells: [{n}/cells.svg]({n}/cells.svg)\n",
             n = e.experiment
         );
+        if !e.snapshots.is_empty() {
+            let _ = writeln!(
+                s,
+                "Intermediate states (rebuilt by replaying the recorded collapses):\n\n\
+                 | cells left | collapses | last weight | next weight | portal pairs | portal area | top view |\n\
+                 |---:|---:|---:|---:|---:|---:|---|"
+            );
+            let w = |x: Option<f64>| x.map_or("–".to_string(), |v| format!("{v:.4}"));
+            for sn in &e.snapshots {
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | {} | {} | {} | {:.4e} | [{f}]({n}/{f}) |",
+                    sn.cells,
+                    sn.collapses,
+                    w(sn.last_weight),
+                    w(sn.next_weight),
+                    sn.portal_pairs,
+                    sn.portal_area,
+                    f = sn.file,
+                    n = e.experiment
+                );
+            }
+            let _ = writeln!(s);
+        }
     }
     s
 }

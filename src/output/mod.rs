@@ -283,15 +283,98 @@ pub fn write_weight_csv(path: &Path, dec: &Decimation) -> Result<()> {
     })
 }
 
+/// An intermediate state of a run, rebuilt by replay: what `cells_<N>.svg` shows.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Snapshot {
+    /// Cells left.
+    pub cells: usize,
+    /// Collapses replayed to reach them.
+    pub collapses: usize,
+    /// Weight of the last of those collapses (`None` for the initial state).
+    pub last_weight: Option<f64>,
+    /// Weight of the run's next collapse (`None` if the run stopped there).
+    pub next_weight: Option<f64>,
+    /// Pairs of cells with portals between them.
+    pub portal_pairs: usize,
+    /// Their summed portal area.
+    pub portal_area: f64,
+    /// The top view's file name, in the output directory.
+    pub file: String,
+}
+
+/// The state of a run with `n` cells left, rebuilt from its recorded steps
+/// ([`Decimation::replay`]), as a [`Snapshot`] and the [`ResultDoc`] its top view draws.
+/// An error (naming the counts the run passed through) if the run never had `n` cells.
+pub fn snapshot(
+    model: &Model,
+    model_path: &Path,
+    cx: &CellComplex,
+    dec: &Decimation,
+    n: usize,
+) -> Result<(Snapshot, ResultDoc)> {
+    let initial = dec.stats.initial_cells;
+    let last = dec.steps.last().map_or(initial, |s| s.cells_remaining);
+    let k = if n == initial {
+        Some(0)
+    } else {
+        dec.steps.iter().position(|s| s.cells_remaining == n).map(|i| i + 1)
+    };
+    let Some(k) = k else {
+        bail!(
+            "snapshot at {n} cells: the run went from {initial} cells down to {last}; \
+             choose counts in that range (lower the stop rule to reach fewer cells)"
+        );
+    };
+    let partition = Decimation::replay(cx, &dec.steps[..k]).context("replaying the recorded steps")?;
+    let state = Decimation {
+        settings: dec.settings,
+        steps: Vec::new(),
+        stop: StopReason::Cells { target: n },
+        stats: dec.stats.clone(),
+        partition,
+    };
+    let mut doc = result_doc(model, model_path, cx, &state, &[])?;
+    doc.settings.stop = format!("snapshot at {n} cells, after {k} collapses");
+    let snap = Snapshot {
+        cells: n,
+        collapses: k,
+        last_weight: k.checked_sub(1).map(|i| dec.steps[i].weight),
+        next_weight: dec.steps.get(k).map(|s| s.weight),
+        portal_pairs: doc.portals.len(),
+        portal_area: doc.portals.iter().map(|p| p.area).sum(),
+        file: format!("cells_{n}.svg"),
+    };
+    Ok((snap, doc))
+}
+
 /// Writes all four outputs into `dir` (created if missing); returns their paths.
 pub fn write_outputs(dir: &Path, model: &Model, doc: &ResultDoc, dec: &Decimation) -> Result<Vec<PathBuf>> {
+    write_outputs_with_snapshots(dir, model, doc, dec, &[])
+}
+
+/// As [`write_outputs`], plus the top view `cells_<N>.svg` of each snapshot (from
+/// [`snapshot`]); returns the paths written.
+pub fn write_outputs_with_snapshots(
+    dir: &Path,
+    model: &Model,
+    doc: &ResultDoc,
+    dec: &Decimation,
+    snapshots: &[(Snapshot, ResultDoc)],
+) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    let paths: Vec<PathBuf> = FILES.iter().map(|f| dir.join(f)).collect();
+    let mut paths: Vec<PathBuf> = FILES.iter().map(|f| dir.join(f)).collect();
     // Each file goes through a temporary name; `result.json` (what `locate` reads) comes
     // last, and if any file fails, the ones this call already wrote are removed, so a
     // failed run never leaves a partial set behind.
     let mut written: Vec<PathBuf> = Vec::new();
     let result = (|| -> Result<()> {
+        for (snap, sdoc) in snapshots {
+            let path = dir.join(&snap.file);
+            let svg = svg::cells_svg(model, sdoc);
+            write_atomic(&path, |tmp| Ok(std::fs::write(tmp, svg)?))
+                .with_context(|| format!("writing {}", snap.file))?;
+            written.push(path);
+        }
         write_weight_csv(&paths[1], dec).context("writing weight_curve.csv")?;
         written.push(paths[1].clone());
         let threshold = match dec.settings.stop {
@@ -325,6 +408,7 @@ pub fn write_outputs(dir: &Path, model: &Model, doc: &ResultDoc, dec: &Decimatio
         }
         return Err(e);
     }
+    paths.extend(snapshots.iter().map(|(s, _)| dir.join(&s.file)));
     Ok(paths)
 }
 
@@ -419,8 +503,19 @@ pub fn read_points(path: &Path) -> Result<Vec<P3>> {
             None if first && f.len() == 3 && f.iter().all(|s| s.starts_with(|c: char| c.is_ascii_alphabetic())) => {
                 continue;
             }
+            Some(v) if v.len() == 3 => bail!(
+                "{}:{}: coordinates must be finite numbers, got {t:?}",
+                path.display(),
+                i + 1
+            ),
             _ => bail!("{}:{}: expected x,y,z, got {t:?}", path.display(), i + 1),
         }
+    }
+    if out.is_empty() {
+        bail!(
+            "{}: no points (expected x,y,z rows, optionally after a header row)",
+            path.display()
+        );
     }
     Ok(out)
 }
