@@ -327,9 +327,34 @@ fn stop_rules_parse_and_apply() {
         "cells:1.5",
         "stop:3",
         "threshold:nan",
+        "cells:",
+        "none:3",
     ] {
         assert!(bad.parse::<StopRule>().is_err(), "{bad}");
     }
+    // cells:0 would run to exhaustion (there is always at least one cell left).
+    let e = "cells:0".parse::<StopRule>().unwrap_err();
+    assert!(e.contains("cells:0") && e.contains("at least 1"), "{e}");
+    // Weights are positive and finite: a threshold <= 0 would stop before the first collapse,
+    // an infinite one never.
+    for bad in [
+        "threshold:0",
+        "threshold:-0",
+        "threshold:-1",
+        "threshold:-inf",
+        "threshold:inf",
+        "threshold:NaN",
+        "threshold:1e999",
+    ] {
+        let e = bad.parse::<StopRule>().unwrap_err();
+        assert!(
+            e.contains(bad) && e.contains("finite") && e.contains("> 0") && e.contains("positive"),
+            "{bad}: {e}"
+        );
+    }
+    assert_eq!("cells:1".parse::<StopRule>(), Ok(StopRule::Cells(1)));
+    assert_eq!("threshold:1e-300".parse::<StopRule>(), Ok(StopRule::Threshold(1e-300)));
+    assert_eq!("threshold:5".parse::<StopRule>(), Ok(StopRule::Threshold(5.0)));
     for r in [StopRule::Threshold(2.25), StopRule::Cells(7), StopRule::None] {
         assert_eq!(r.to_string().parse::<StopRule>(), Ok(r));
     }
@@ -347,7 +372,8 @@ fn stop_rules_parse_and_apply() {
     assert_eq!(threshold, 3.0);
     assert!(next_weight >= 3.0);
     assert!(d.steps.iter().all(|s| s.weight < 3.0));
-    // cells:N below the number of regions stops when no pair is left.
+    // cells:N below the number of regions stops when no pair is left. (`cells:0` does not
+    // parse, but a `StopRule::Cells(0)` built in code still runs to exhaustion.)
     let d = Decimation::run(
         &cx,
         &settings(HeuristicKind::Aspect, Estimator::Hull, StopRule::Cells(0)),

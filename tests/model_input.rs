@@ -299,6 +299,82 @@ fn error_all_coplanar() {
     assert!(matches!(e, ModelError::Degenerate { independent: 3, .. }), "{e}");
 }
 
+/// The reason of an `Empty` error.
+fn empty_reason(e: &ModelError) -> &str {
+    match e {
+        ModelError::Empty { reason, .. } => reason,
+        _ => panic!("expected an empty-model error, got: {e}"),
+    }
+}
+
+#[test]
+fn error_only_degenerate_face_is_empty() {
+    // `f 1 1 1` references a single point, so the referenced vertices' bounding box has a zero
+    // diagonal; that must not be reported as a coordinate-range problem.
+    let e = load_err("err_degenerate_face.obj");
+    assert!(matches!(e, ModelError::Empty { .. }), "{e}");
+    let msg = e.to_string();
+    assert!(msg.contains("zero-area") && !msg.contains("out of range"), "{msg}");
+    // The same reason as when cleaning drops every polygon of an in-range model.
+    let collinear = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]];
+    let in_range = from_soup("soup", collinear, vec![vec![0, 1, 2]]).unwrap_err();
+    assert_eq!(empty_reason(&e), empty_reason(&in_range));
+    assert_eq!(
+        empty_reason(&e),
+        "all 1 polygons were dropped (1 zero-area, 0 duplicate)"
+    );
+
+    // Distinct indices at one point, and exactly collinear polygons at scales far outside the
+    // supported range: still empty (every polygon has zero area at any scale).
+    let soups = [
+        (vec![[1.0, 2.0, 3.0]; 3], vec![vec![0, 1, 2], vec![2, 1, 0]]),
+        (
+            vec![[0.0; 3], [1e300, 0.0, 0.0], [3e300, 0.0, 0.0]],
+            vec![vec![0, 1, 2]],
+        ),
+        (
+            vec![[1e-300, 1e-300, 0.0], [2e-300, 2e-300, 0.0], [5e-300, 5e-300, 0.0]],
+            vec![vec![0, 1, 2]],
+        ),
+        (
+            vec![[1e20, 0.0, 1e20], [0.0, 1e20, 1e20], [1e20, 1e20, 1e20]],
+            vec![vec![0, 0, 1], vec![2, 2, 2]],
+        ),
+    ];
+    for (v, f) in soups {
+        let n = f.len();
+        let e = from_soup("soup", v, f).unwrap_err();
+        let expected = format!("all {n} polygons were dropped ({n} zero-area, 0 duplicate)");
+        assert_eq!(empty_reason(&e), expected, "{e}");
+    }
+
+    // One real polygon out of range besides a degenerate one: the range is the problem.
+    let v = vec![[0.0; 3], [1e20, 0.0, 0.0], [0.0, 1e20, 0.0]];
+    let e = from_soup("soup", v, vec![vec![0, 0, 0], vec![0, 1, 2]]).unwrap_err();
+    assert!(matches!(e, ModelError::CoordinateRange { .. }), "{e}");
+}
+
+#[test]
+fn error_used_vertices_coplanar() {
+    // One triangle plus two unused vertices off its plane: the unused vertices are ignored, so
+    // the model is flat, and the message must say that it is the *used* vertices that are.
+    let e = load_err("err_coplanar_unused.obj");
+    assert!(
+        matches!(
+            e,
+            ModelError::Degenerate {
+                independent: 3,
+                shape: "coplanar",
+                ..
+            }
+        ),
+        "{e}"
+    );
+    let msg = e.to_string();
+    assert!(msg.contains("used by polygons"), "{msg}");
+    assert!(!msg.contains("all vertices are"), "{msg}");
+}
+
 #[test]
 fn error_mesh_counts_and_short_polygon() {
     let e = load_err("err_counts.mesh");

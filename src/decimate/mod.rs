@@ -89,9 +89,9 @@ pub const MEAN_NORMAL_REL: f64 = 1e-6;
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", content = "value", rename_all = "lowercase")]
 pub enum StopRule {
-    /// Stop when the lowest weight is `>= W` (`threshold:W`).
+    /// Stop when the lowest weight is `>= W` (`threshold:W`; parsing requires a finite `W > 0`).
     Threshold(f64),
-    /// Stop when at most `N` cells are left (`cells:N`).
+    /// Stop when at most `N` cells are left (`cells:N`; parsing requires `N >= 1`).
     Cells(usize),
     /// Run until no pair is left: one cell per connected region (`none`).
     None,
@@ -118,12 +118,28 @@ impl FromStr for StopRule {
         match kind {
             "threshold" => {
                 let w: f64 = v.parse().map_err(|_| bad())?;
-                if w.is_nan() {
-                    return Err(bad());
+                // Collapse weights are positive and finite: at W <= 0 the first pair would
+                // already be at or above the threshold, and W = inf would never be reached.
+                if !(w.is_finite() && w > 0.0) {
+                    return Err(format!(
+                        "bad stop rule {s:?}: W must be a finite number > 0; collapse weights are \
+                         positive and finite, so this threshold would stop before the first \
+                         collapse (or never; use `none` to run to the end)"
+                    ));
                 }
                 Ok(StopRule::Threshold(w))
             }
-            "cells" => Ok(StopRule::Cells(v.parse().map_err(|_| bad())?)),
+            "cells" => {
+                let n: usize = v.parse().map_err(|_| bad())?;
+                if n == 0 {
+                    return Err(format!(
+                        "bad stop rule {s:?}: N must be at least 1 (a decimation always leaves at \
+                         least one cell, so cells:0 would run until no pair is left; use `none` \
+                         for that)"
+                    ));
+                }
+                Ok(StopRule::Cells(n))
+            }
             _ => Err(bad()),
         }
     }

@@ -123,6 +123,18 @@ pub(crate) fn clean(name: &str, file: &str, soup: Soup) -> Result<Model, ModelEr
     let max_abs = (0..3).map(|k| lo[k].abs().max(hi[k].abs())).fold(0.0, f64::max);
     let in_range = max_abs <= 1e15 && diag >= 1e-9 && diag.is_finite();
     if !in_range {
+        // The range check has to come before cleaning: welding and the zero-area test use the
+        // tolerances, which are relative to `diag`. But a model whose every polygon has zero
+        // area whatever the tolerances (e.g. `f 1 1 1`, whose bounding box is a point) would
+        // be empty at any scale: report that, as cleaning would, rather than a range that a
+        // rescaling could not fix.
+        if polygons
+            .iter()
+            .all(|p| zero_area_at_any_scale(&vertices, &p.verts, max_abs))
+        {
+            report.zero_area_polygons_dropped = polygons.len();
+            return Err(all_dropped(file, &report));
+        }
         return Err(ModelError::CoordinateRange {
             file: file.into(),
             max_abs,
@@ -227,13 +239,7 @@ pub(crate) fn clean(name: &str, file: &str, soup: Soup) -> Result<Model, ModelEr
         }
     }
     if out.is_empty() {
-        return Err(ModelError::Empty {
-            file: file.into(),
-            reason: format!(
-                "all {} polygons were dropped ({} zero-area, {} duplicate)",
-                report.input_polygons, report.zero_area_polygons_dropped, report.duplicate_polygons_dropped
-            ),
-        });
+        return Err(all_dropped(file, &report));
     }
 
     // 6. Unused vertices.
@@ -281,7 +287,8 @@ pub(crate) fn clean(name: &str, file: &str, soup: Soup) -> Result<Model, ModelEr
     }
     report.t_junctions = count_t_junctions(&final_vertices, &unique);
 
-    // Degeneracy: at least 4 affinely independent vertices.
+    // Degeneracy: at least 4 affinely independent vertices, among the used ones (unused
+    // vertices were dropped in step 6).
     let independent = affine_rank(&final_vertices);
     if independent < 4 {
         let shape = match independent {
@@ -303,6 +310,42 @@ pub(crate) fn clean(name: &str, file: &str, soup: Soup) -> Result<Model, ModelEr
         report,
         tolerances,
     })
+}
+
+/// The error for a model none of whose polygons survived cleaning.
+fn all_dropped(file: &str, report: &CleaningReport) -> ModelError {
+    ModelError::Empty {
+        file: file.into(),
+        reason: format!(
+            "all {} polygons were dropped ({} zero-area, {} duplicate)",
+            report.input_polygons, report.zero_area_polygons_dropped, report.duplicate_polygons_dropped
+        ),
+    }
+}
+
+/// True when the polygon `vs` has zero area in the exact input coordinates (fewer than 3
+/// distinct points, or all collinear), so that cleaning drops it whatever the tolerances.
+/// Used only when the coordinates are out of the supported range (`max_abs` is the largest
+/// |coordinate| of the referenced vertices), where the predicates could overflow or
+/// underflow: the points are first scaled by a power of two bringing `max_abs` near 1, which
+/// is exact (but for coordinates more than ~2^-1000 times smaller than `max_abs`, which
+/// become subnormal) and does not change collinearity.
+fn zero_area_at_any_scale(pts: &[[f64; 3]], vs: &[u32], max_abs: f64) -> bool {
+    if !has_three_distinct(vs) || max_abs == 0.0 || !max_abs.is_finite() {
+        return true;
+    }
+    // 2^k for |k| <= 1023, exactly.
+    let pow2 = |k: i32| f64::from_bits(((1023 + k) as u64) << 52);
+    // max_abs = m * 2^e with m in [1, 2); scale by 2^-e in two halves, each in range even
+    // for subnormal `max_abs` (e down to -1074).
+    let e = max_abs.log2().floor() as i32;
+    let (k1, k2) = (-e / 2, -e - (-e / 2));
+    let scaled: Vec<[f64; 3]> = vs
+        .iter()
+        .map(|&v| pts[v as usize].map(|x| x * pow2(k1) * pow2(k2)))
+        .collect();
+    let idx: Vec<u32> = (0..scaled.len() as u32).collect();
+    all_collinear(&scaled, &idx)
 }
 
 /// True when all vertices of `vs` are exactly collinear (or coincide).

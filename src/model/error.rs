@@ -113,16 +113,19 @@ pub enum ModelError {
     #[error("{file}: empty model: {reason}; the model needs at least one non-degenerate polygon")]
     Empty { file: String, reason: String },
 
-    /// All vertices lie in one plane (or on one line, or at one point).
+    /// All vertices used by the cleaned polygons lie in one plane (or on one line, or at one
+    /// point). Vertices used by no polygon (in the input, or after cleaning dropped every
+    /// polygon using them) are ignored, so they do not make a flat model 3D.
     #[error(
-        "{file}: degenerate model: only {independent} affinely independent vertices (all \
-         vertices are {shape}); a 3D model needs at least 4 non-coplanar vertices"
+        "{file}: degenerate model: the vertices used by polygons are {shape} (only \
+         {independent} affinely independent; vertices used by no polygon are ignored); a 3D \
+         model needs polygons using at least 4 non-coplanar vertices"
     )]
     Degenerate {
         file: String,
-        /// Size of the largest affinely independent vertex set found (0 to 3).
+        /// Size of the largest affinely independent set of used vertices (0 to 3).
         independent: usize,
-        /// `"coincident"`, `"collinear"` or `"coplanar"`.
+        /// `"coincident"`, `"collinear"` or `"coplanar"`: the shape of the used vertices.
         shape: &'static str,
     },
 

@@ -52,7 +52,12 @@
 //! change in the [`CleaningReport`] (nothing is changed silently):
 //!
 //! 1. **Tolerances** are [`Tolerances::for_scale`] of the bounding-box diagonal of the vertices
-//!    referenced by some polygon (stray unreferenced vertices do not inflate it).
+//!    referenced by some polygon (stray unreferenced vertices do not inflate it). The
+//!    coordinates must be in range first ([`ModelError::CoordinateRange`]: largest |coordinate|
+//!    of those vertices at most 1e15, diagonal at least 1e-9), since every later step uses the
+//!    tolerances. Out of range, a model whose every polygon has zero area in the exact input
+//!    coordinates (fewer than 3 distinct points, or collinear; e.g. `f 1 1 1`) is reported as
+//!    [`ModelError::Empty`], as cleaning would: it would be empty at any scale.
 //! 2. **Welding.** Vertices are visited in file order; a vertex closer than
 //!    [`Tolerances::weld_abs`] to an earlier surviving vertex is merged into the nearest such
 //!    vertex (grid hash with cell size = weld distance, expected O(n)). Chains are not
@@ -85,8 +90,9 @@
 //!    `t_junctions` (pairs of a vertex and an edge such that the vertex lies exactly on the
 //!    edge, strictly between its endpoints; found with a uniform grid over the vertices).
 //!
-//! Finally the model must have at least one polygon ([`ModelError::Empty`]) and at least four
-//! non-coplanar vertices ([`ModelError::Degenerate`]).
+//! Finally the model must have at least one polygon ([`ModelError::Empty`]) and its polygons
+//! must use at least four non-coplanar vertices ([`ModelError::Degenerate`]; unused vertices,
+//! dropped in step 6, do not count).
 
 mod clean;
 mod error;
