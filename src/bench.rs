@@ -35,6 +35,9 @@ pub fn rotate_789_offset(p: P3) -> P3 {
     [r[0] + 1e6, r[1] + 1e6, r[2] + 1e6]
 }
 
+/// The seed of every benchmark input.
+pub const SEED: u64 = 12345;
+
 /// Generates about `n` points of the given kind with a fixed seed.
 pub fn generate(kind: &str, n: usize, seed: u64) -> Option<Vec<P3>> {
     let mut rng = SplitMix64(seed);
@@ -120,7 +123,7 @@ pub fn peak_rss_mb() -> Option<f64> {
 
 /// Runs one case in this process.
 pub fn run_one(kind: &str, n: usize, validate: bool) -> Option<Row> {
-    let pts = generate(kind, n, 12345)?;
+    let pts = generate(kind, n, SEED)?;
     let t0 = Instant::now();
     let built = Tetrahedralization::build(&pts);
     let seconds = t0.elapsed().as_secs_f64();

@@ -191,6 +191,17 @@ enum BenchCmd {
         #[arg(long, default_value_t = 1)]
         repeat: usize,
     },
+    /// Write the points of one benchmark case as raw little-endian f64 triples (x, y, z per
+    /// point, no header), to run another tetrahedralizer on identical input (see
+    /// bench/cgal/README.md for CGAL).
+    Points {
+        /// Input kind: uniform, grid, boxes or urot.
+        kind: String,
+        /// Number of points.
+        n: usize,
+        /// Output file.
+        out: PathBuf,
+    },
     /// Run one case in this process and print it as JSON (what `bench delaunay` runs in a
     /// child process per case). With the environment variable PF_BENCH_STATS=1 it also
     /// prints the per-phase times and walk/cavity statistics to stderr.
@@ -237,6 +248,14 @@ fn run(cli: Cli) -> Result<()> {
             what: GenCmd::Thesis { name, out },
         } => gen_thesis(&name, &out),
         Cmd::Bench { what } => match what {
+            BenchCmd::Points { kind, n, out } => {
+                let pts = bench::generate(&kind, n, bench::SEED)
+                    .with_context(|| format!("unknown input kind {kind:?} (uniform, grid, boxes, urot)"))?;
+                let bytes: Vec<u8> = pts.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
+                std::fs::write(&out, bytes).with_context(|| format!("cannot write {}", out.display()))?;
+                println!("wrote {} points to {}", pts.len(), out.display());
+                Ok(())
+            }
             BenchCmd::One { kind, n } => {
                 let row = bench::run_one(&kind, n, true).with_context(|| format!("unknown input kind {kind:?}"))?;
                 println!("{}", serde_json::to_string(&row)?);
