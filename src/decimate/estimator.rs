@@ -328,7 +328,7 @@ impl Shape {
 }
 
 /// The projected area of a cell given by its convex pieces, computed from scratch (no
-/// hulls kept, no blocks fused): the reference the incremental states are tested against.
+/// hulls or boundary faces kept): the reference the incremental states are tested against.
 /// `bbox` and `hull` use all piece vertices; `union` the union of the pieces' projections.
 pub fn projected_area_direct(est: Estimator, pieces: &[&crate::geom::ConvexPolyhedron], frame: &Frame) -> f64 {
     let proj =
