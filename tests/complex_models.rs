@@ -30,6 +30,18 @@ fn one_box_room() {
     assert!((active_volume(&cx) - 48.0).abs() < 1e-9, "{}", active_volume(&cx));
 }
 
+/// `validate` refuses a cell two of whose faces name the same patch (the `union`
+/// estimator keys a cell's boundary faces by patch, so this must never happen).
+#[test]
+fn validate_refuses_a_cell_whose_faces_share_a_patch() {
+    let (m, mut cx) = build(&scenes::box_room());
+    let c = cx.cells.iter().position(|c| c.alive && c.poly.tags.len() >= 2).unwrap();
+    let tags = &mut cx.cells[c].poly.tags;
+    tags[1] = tags[0];
+    let e = cx.validate(&m).unwrap_err().to_string();
+    assert!(e.contains("two faces of the cell name the same patch"), "{e}");
+}
+
 #[test]
 fn two_rooms_joined_by_a_door() {
     let (_, cx) = build(&scenes::two_rooms());

@@ -104,6 +104,16 @@ impl CellComplex {
                     .map_err(|why| ComplexError::BadCell { cell: i as u32, why })?;
             }
             vol += c.poly.volume();
+            // Each face is its own patch (the `union` estimator keys boundary faces by patch).
+            let mut tags = c.poly.tags.clone();
+            tags.sort_unstable();
+            if let Some(w) = tags.windows(2).find(|w| w[0] == w[1]) {
+                return Err(ComplexError::Topology {
+                    cell: i as u32,
+                    patch: w[0],
+                    why: "two faces of the cell name the same patch",
+                });
+            }
             for &t in &c.poly.tags {
                 let p = &self.patches[t as usize];
                 if !p.alive {

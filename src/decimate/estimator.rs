@@ -172,6 +172,12 @@ impl Face {
 
 impl Boundary {
     fn of(poly: &ConvexPolyhedron) -> Self {
+        // A cell's faces name distinct patches (checked by `CellComplex::validate`).
+        debug_assert!({
+            let mut t = poly.tags.clone();
+            t.sort_unstable();
+            t.windows(2).all(|w| w[0] != w[1])
+        });
         Boundary {
             faces: poly
                 .tags
