@@ -29,7 +29,7 @@
 //! that cheaper than the silhouette's size. Front faces overlap only where the solid has
 //! several layers along the direction — not as deep as its pieces pile up, which made a
 //! union over pieces quadratic in a merged room's size (e1m1 at `cells:60`: 807 s with
-//! convex blocks of pieces, 449 s with boundary faces; `hull` takes under a second).
+//! convex blocks of pieces, 384 s with boundary faces; `hull` takes under a second).
 
 use super::hull3::Hull3;
 use super::project::{Frame, P2, bbox_area, hull2, polygon_area, union_area, union_area_delta};
