@@ -277,15 +277,17 @@ fn run(cli: Cli) -> Result<()> {
             subdivision,
             bsp_candidates,
             snapshots,
-        } => run_decimation(
-            &model,
-            heuristic,
-            estimator,
-            stop,
-            &out,
-            Cells::new(subdivision, bsp_candidates),
-            &snapshots,
-        ),
+        } => with_output_dir(&out, || {
+            run_decimation(
+                &model,
+                heuristic,
+                estimator,
+                stop,
+                &out,
+                Cells::new(subdivision, bsp_candidates),
+                &snapshots,
+            )
+        }),
         Cmd::Locate { dir, points } => locate(&dir, &points),
         Cmd::Experiment { path, out, only } => experiment(&path, out, &only),
     }
@@ -669,23 +671,15 @@ fn bench_delaunay(sizes: &[usize], kinds: &[String], json: Option<PathBuf>, repe
     Ok(())
 }
 
-fn run_decimation(
-    path: &std::path::Path,
-    heuristic: portalfind::decimate::HeuristicKind,
-    estimator: portalfind::decimate::Estimator,
-    stop: portalfind::decimate::StopRule,
-    out: &std::path::Path,
-    how: Cells,
-    snapshot_counts: &[usize],
-) -> Result<()> {
-    // Fail before the work if the output directory cannot be created; if this run created
-    // it and then fails, remove it again (the writers already leave no files behind).
+/// Runs `f` with the output directory `out` created (with missing parents); if `f` fails,
+/// removes the directories this call created (the writers already leave no files behind).
+fn with_output_dir(out: &std::path::Path, f: impl FnOnce() -> Result<()>) -> Result<()> {
     let created: Vec<&std::path::Path> = out
         .ancestors()
         .take_while(|a| !a.as_os_str().is_empty() && !a.exists())
         .collect();
     std::fs::create_dir_all(out).with_context(|| format!("cannot create output directory {}", out.display()))?;
-    let r = run_decimation_into(path, heuristic, estimator, stop, out, how, snapshot_counts);
+    let r = f();
     if r.is_err() {
         // Innermost first; `remove_dir` only removes empty directories.
         for d in created {
@@ -695,7 +689,7 @@ fn run_decimation(
     r
 }
 
-fn run_decimation_into(
+fn run_decimation(
     path: &std::path::Path,
     heuristic: portalfind::decimate::HeuristicKind,
     estimator: portalfind::decimate::Estimator,

@@ -32,7 +32,8 @@
 //! convex blocks of pieces, 384 s with boundary faces; `hull` takes under a second).
 
 use super::hull3::Hull3;
-use super::project::{Frame, P2, bbox_area, hull2, polygon_area, union_area, union_area_delta};
+use super::project::{Frame, P2, bbox_area, bbox2, hull2, polygon_area, union_area, union_area_delta};
+use crate::geom::vec::dot;
 use crate::geom::{ConvexPolygon, ConvexPolyhedron};
 use crate::predicates::P3;
 use serde::{Deserialize, Serialize};
@@ -116,6 +117,9 @@ pub(crate) struct Boundary {
     /// The shared faces of the last merge, as the survivor and as the absorbed cell had them.
     shared_own: Vec<(u32, Face)>,
     shared_absorbed: Vec<(u32, Face)>,
+    /// Keys of the absorbed cell's faces that the last merge kept (sorted), so that an
+    /// incremental evaluation finds them without scanning the whole boundary.
+    absorbed: Vec<u32>,
 }
 
 /// One boundary face with what the per-evaluation filters need, computed once.
@@ -159,7 +163,7 @@ impl Face {
     /// vector has a positive component along it). Faces seen edge-on project to slivers,
     /// which [`union_area`] drops by its width test.
     fn front(&self, frame: &Frame) -> Option<Vec<P2>> {
-        (dot_n(&self.area, &frame.n) > 0.0).then(|| hull2(self.poly.verts.iter().map(|p| frame.project(p)).collect()))
+        (dot(&self.area, &frame.n) > 0.0).then(|| hull2(self.poly.verts.iter().map(|p| frame.project(p)).collect()))
     }
 
     /// Whether the projection may meet the box `(lo, hi)` (bounding-sphere test).
@@ -194,6 +198,7 @@ impl Boundary {
         self.stamp = self.stamp.max(other.stamp) + 1;
         self.shared_own.clear();
         self.shared_absorbed.clear();
+        self.absorbed.clear();
         for (k, mut f) in other.faces {
             match self.faces.remove(&k) {
                 Some(mine) => {
@@ -203,9 +208,11 @@ impl Boundary {
                 None => {
                     f.stamp = self.stamp;
                     self.faces.insert(k, f);
+                    self.absorbed.push(k);
                 }
             }
         }
+        self.absorbed.sort_unstable();
         self.shared_own.sort_unstable_by_key(|e| e.0);
         self.shared_absorbed.sort_unstable_by_key(|e| e.0);
     }
@@ -235,10 +242,9 @@ impl Boundary {
             return self.projected_area(frame);
         }
         let mut absorbed: Vec<(u32, &Face)> = self
-            .faces
+            .absorbed
             .iter()
-            .filter(|(_, f)| f.stamp == self.stamp)
-            .map(|(k, f)| (*k, f))
+            .map(|k| (*k, &self.faces[k]))
             .chain(self.shared_absorbed.iter().map(|(k, f)| (*k, f)))
             .collect();
         absorbed.sort_unstable_by_key(|e| e.0);
@@ -246,7 +252,7 @@ impl Boundary {
         if v.is_empty() {
             return before;
         }
-        let (lo, hi) = box2(v.iter().flatten());
+        let (lo, hi) = bbox2(v.iter().flatten());
         let mut own: Vec<(u32, Vec<P2>)> = self
             .faces
             .iter()
@@ -260,21 +266,6 @@ impl Boundary {
         let d = union_area_delta(&u, &v);
         before + if d.is_finite() { d.max(0.0) } else { 0.0 }
     }
-}
-
-fn box2<'a>(pts: impl Iterator<Item = &'a P2>) -> (P2, P2) {
-    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for p in pts {
-        for k in 0..2 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
-    (lo, hi)
-}
-
-fn dot_n(a: &P3, b: &P3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 impl Shape {

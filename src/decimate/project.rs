@@ -111,17 +111,12 @@ pub fn bbox_area(pts: &[P2]) -> f64 {
     if pts.is_empty() {
         return 0.0;
     }
-    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for p in pts {
-        for k in 0..2 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
+    let (lo, hi) = bbox2(pts);
     (hi[0] - lo[0]) * (hi[1] - lo[1])
 }
 
-fn bbox2(p: &[P2]) -> (P2, P2) {
+/// The axis-aligned bounding box `(lo, hi)` of the points (inverted, infinite, if none).
+pub(crate) fn bbox2<'p>(p: impl IntoIterator<Item = &'p P2>) -> (P2, P2) {
     let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
     for q in p {
         for k in 0..2 {
@@ -269,13 +264,7 @@ impl<'a> Prepared<'a> {
             .map(|p| (p.as_slice(), bbox2(p), polygon_area(p)))
             .filter(|e| e.2 > 0.0)
             .collect();
-        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-        for (_, b, _) in &kept {
-            for k in 0..2 {
-                lo[k] = lo[k].min(b.0[k]);
-                hi[k] = hi[k].max(b.1[k]);
-            }
-        }
+        let (lo, hi) = bbox2(kept.iter().flat_map(|(_, b, _)| [&b.0, &b.1]));
         let tol = UNION_COLLINEAR_REL * (hi[0] - lo[0]).max(hi[1] - lo[1]);
         // Width ≤ 2·area/diameter (a convex polygon holds a triangle on its diameter),
         // and the diameter is at least the box diagonal over √2.
