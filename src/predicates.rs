@@ -113,6 +113,14 @@ fn orient3d_filter(a: &P3, b: &P3, c_: &P3, d: &P3) -> Option<i32> {
     }
 }
 
+/// The larger of two differences, in one `maxsd` (`f64::max`'s NaN rules cost several
+/// instructions, on the hottest path of the tetrahedralization). It may drop a NaN, but a
+/// NaN difference makes the determinant NaN too, and then no comparison certifies a sign.
+#[inline(always)]
+fn fmax(a: f64, b: f64) -> f64 {
+    if a > b { a } else { b }
+}
+
 /// Shewchuk's insphere floating-point stage with his a-priori error bound (his convention).
 #[inline(always)]
 fn insphere_filter(a: &P3, b: &P3, c_: &P3, d: &P3, e: &P3) -> Option<i32> {
@@ -145,9 +153,9 @@ fn insphere_filter(a: &P3, b: &P3, c_: &P3, d: &P3, e: &P3) -> Option<i32> {
     // coordinate differences, permanent <= 24 mx my mz (mx² + my² + mz²). Cheaper than the
     // permanent itself and decisive for almost every call; the slack factor covers the
     // rounding of this product.
-    let mx = aex.abs().max(bex.abs()).max(cex.abs()).max(dex.abs());
-    let my = aey.abs().max(bey.abs()).max(cey.abs()).max(dey.abs());
-    let mz = aez.abs().max(bez.abs()).max(cez.abs()).max(dez.abs());
+    let mx = fmax(fmax(aex.abs(), bex.abs()), fmax(cex.abs(), dex.abs()));
+    let my = fmax(fmax(aey.abs(), bey.abs()), fmax(cey.abs(), dey.abs()));
+    let mz = fmax(fmax(aez.abs(), bez.abs()), fmax(cez.abs(), dez.abs()));
     let semi = ISP_BOUND * (24.0 * (1.0 + 1e-10)) * (mx * my * mz) * (mx * mx + my * my + mz * mz);
     if det > semi {
         return Some(1);

@@ -441,7 +441,7 @@ impl<'a> Builder<'a> {
         orient3d(self.p(w[0]), self.p(w[1]), self.p(w[2]), self.p(w[3]))
     }
 
-    #[inline]
+    #[inline(always)]
     fn insphere_finite(&self, v: &[u32; 4], p: u32) -> i32 {
         let r = self.rank;
         if let Some(l) = self.lat {
@@ -673,41 +673,77 @@ impl<'a> Builder<'a> {
         }
     }
 
-    /// Renumbers so finite tetrahedra come first and drops dead slots, in place: finite
-    /// slots only move towards the front, the few infinite ones go through a side buffer,
-    /// then every neighbour reference is remapped.
+    /// Renumbers so finite tetrahedra come first and drops dead slots. Only the few slots
+    /// that must move are touched: every hole below the finite count (a dead or infinite
+    /// slot) takes a finite slot from above it, and the infinite slots go after the finite
+    /// ones; then the moved slots' references and their neighbours' back-references are
+    /// rewritten. Cost: one sequential scan plus work in the number of moved slots (the
+    /// hull and the unused free list), not a remap of every reference.
     fn compact(&mut self) -> (Vec<TetSlot>, usize) {
-        let n = self.t.len();
-        let mut map = vec![u32::MAX; n];
-        let mut next = 0u32;
+        let is_finite = |s: &TetSlot| s.v[0] != DEAD && !s.v.contains(&INFINITE);
+        let n_finite = self.t.iter().filter(|s| is_finite(s)).count();
+        let mut infinite: Vec<u32> = Vec::new();
+        let mut holes: Vec<u32> = Vec::new();
+        let mut movers: Vec<u32> = Vec::new();
         for (t, s) in self.t.iter().enumerate() {
-            if s.v[0] != DEAD && !s.v.contains(&INFINITE) {
-                map[t] = next;
-                next += 1;
+            let fin = is_finite(s);
+            if s.v[0] != DEAD && !fin {
+                infinite.push(t as u32);
+            }
+            if t < n_finite && !fin {
+                holes.push(t as u32);
+            } else if t >= n_finite && fin {
+                movers.push(t as u32);
             }
         }
-        let n_finite = next as usize;
-        let mut infinite = Vec::new();
-        for (t, s) in self.t.iter().enumerate() {
-            if s.v[0] != DEAD && s.v.contains(&INFINITE) {
-                map[t] = next;
-                next += 1;
-                infinite.push(*s);
-            }
-        }
-        for t in 0..n {
-            let m = map[t] as usize;
-            if m < n_finite {
-                self.t[m] = self.t[t];
-            }
-        }
+        debug_assert_eq!(holes.len(), movers.len());
+        // Old index -> new index of every moved slot.
+        let moved: std::collections::HashMap<u32, u32> = movers
+            .iter()
+            .zip(&holes)
+            .map(|(&from, &to)| (from, to))
+            .chain(
+                infinite
+                    .iter()
+                    .enumerate()
+                    .map(|(k, &from)| (from, (n_finite + k) as u32)),
+            )
+            .collect();
+        let remap = |a: u32| moved.get(&(a >> 2)).map_or(a, |&t| t * 4 + (a & 3));
+        // New contents of the moved slots, read before anything is overwritten.
+        let placed: Vec<(u32, TetSlot)> = moved
+            .iter()
+            .map(|(&from, &to)| {
+                let s = self.t[from as usize];
+                (
+                    to,
+                    TetSlot {
+                        v: s.v,
+                        n: s.n.map(remap),
+                    },
+                )
+            })
+            .collect();
         let mut slots = std::mem::take(&mut self.t);
         slots.truncate(n_finite);
-        slots.extend(infinite);
-        slots.shrink_to_fit();
-        for s in &mut slots {
-            s.n = s.n.map(|a| map[(a >> 2) as usize] * 4 + (a & 3));
+        slots.resize(
+            n_finite + infinite.len(),
+            TetSlot {
+                v: [DEAD; 4],
+                n: [0; 4],
+            },
+        );
+        for &(to, s) in &placed {
+            slots[to as usize] = s;
         }
+        // Neighbours still name the moved slots' old indices.
+        for &(to, s) in &placed {
+            for (i, &a) in s.n.iter().enumerate() {
+                slots[(a >> 2) as usize].n[(a & 3) as usize] = to * 4 + i as u32;
+            }
+        }
+        // No shrink_to_fit: the spare capacity is the insertion's head room (a few percent),
+        // and shrinking copies the whole array.
         self.mark = Vec::new();
         (slots, n_finite)
     }
