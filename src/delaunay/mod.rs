@@ -114,14 +114,54 @@ struct Builder<'a> {
     // Scratch buffers reused across insertions.
     stack: Vec<u32>,
     cavity: Vec<u32>,
-    boundary: Vec<(u32, u8)>,
-    links: Vec<(u32, u32, u32)>,
-    /// Per-vertex local number during one insertion (`local_epoch` marks validity).
+    /// The cavity's boundary faces as the new tetrahedra they become.
+    boundary: Vec<NewTet>,
+    /// Per-vertex `(epoch, local number)` during one insertion: cavity vertices get small
+    /// numbers so the faces through the new point pair up by a direct table lookup.
     local: Vec<(u32, u32)>,
+    /// Pairing table indexed by the triangular number of an edge's two local numbers.
     table: Vec<u32>,
-    staged: Vec<([u32; 4], u32)>,
     stats: BuildStats,
 }
+
+/// A tetrahedron about to be created from a cavity boundary face: the face's tetrahedron
+/// with the new point in slot `i`, and the encoded neighbour outside the cavity across
+/// that slot's face.
+#[derive(Clone, Copy)]
+struct NewTet {
+    v: [u32; 4],
+    outer: u32,
+    i: u8,
+}
+
+/// For a new tetrahedron with the new point in slot `i`, its face `j` (j ≠ i) contains the
+/// new point and the edge between slots `EDGE[i][j]`; the face is shared with the new
+/// tetrahedron on the other side of that edge.
+const EDGE: [[(usize, usize); 4]; 4] = {
+    let mut e = [[(0, 0); 4]; 4];
+    let mut i = 0;
+    while i < 4 {
+        let mut j = 0;
+        while j < 4 {
+            if i != j {
+                let mut s = 0;
+                let mut pair = [0usize; 2];
+                let mut m = 0;
+                while s < 4 {
+                    if s != i && s != j {
+                        pair[m] = s;
+                        m += 1;
+                    }
+                    s += 1;
+                }
+                e[i][j] = (pair[0], pair[1]);
+            }
+            j += 1;
+        }
+        i += 1;
+    }
+    e
+};
 
 impl Tetrahedralization {
     /// Builds the Delaunay tetrahedralization of `points` with a fixed insertion seed.
@@ -356,10 +396,8 @@ impl<'a> Builder<'a> {
             stack: Vec::new(),
             cavity: Vec::new(),
             boundary: Vec::new(),
-            links: Vec::new(),
             local: vec![(0, 0); pts.len() + 1],
             table: Vec::new(),
-            staged: Vec::new(),
             stats,
         }
     }
@@ -460,6 +498,7 @@ impl<'a> Builder<'a> {
     /// Whether point `p` conflicts with tetrahedron `t` (lies inside its circumsphere, or
     /// for an infinite tetrahedron, strictly outside its hull face, or on the face's plane
     /// inside its circumcircle — decided as for the finite neighbour, so both agree).
+    #[inline(always)]
     fn in_conflict(&self, t: u32, p: u32) -> bool {
         let v = &self.t[t as usize].v;
         if let Some(k) = v.iter().position(|&x| x == INFINITE) {
@@ -508,17 +547,6 @@ impl<'a> Builder<'a> {
         }
     }
 
-    fn new_tet(&mut self, v: [u32; 4]) -> u32 {
-        if let Some(t) = self.free.pop() {
-            self.t[t as usize].v = v;
-            t
-        } else {
-            self.t.push(TetSlot { v, n: [u32::MAX; 4] });
-            self.mark.push(0);
-            (self.t.len() - 1) as u32
-        }
-    }
-
     /// `p` lies on the boundary of `t` but is not in conflict with it: the conflicting
     /// tetrahedron is among those sharing the face, edge or vertex `p` lies on. Searches
     /// across the faces of `t` whose plane contains `p`.
@@ -549,15 +577,28 @@ impl<'a> Builder<'a> {
     }
 
     fn insert(&mut self, p: u32) {
-        let mut seed = self.locate(p);
-        // Marks: 2*epoch = in cavity, 2*epoch+1 = tested and not in conflict.
+        let seed = self.locate(p);
+        self.grow_cavity(seed, p);
+        self.star();
+    }
+
+    /// Collects the tetrahedra in conflict with `p` (depth-first from the located one)
+    /// into `cavity`, and the cavity's boundary faces, already turned into the new
+    /// tetrahedra with `p` at the face's opposite slot, into `boundary`.
+    #[inline(never)] // a phase of its own in profiles
+    fn grow_cavity(&mut self, mut seed: u32, p: u32) {
+        // Marks: 2*epoch = in cavity, 2*epoch+1 = tested and not in conflict. Marks of
+        // earlier insertions are smaller, so none need clearing, until the epoch wraps.
+        if self.epoch >= u32::MAX / 2 - 2 {
+            self.mark.iter_mut().for_each(|m| *m = 0);
+            self.epoch = 0;
+        }
         self.epoch += 1;
         if !self.in_conflict(seed, p) {
             seed = self.seed_on_boundary(seed, p);
             self.epoch += 1;
         }
         let (yes, no) = (2 * self.epoch, 2 * self.epoch + 1);
-        // Grow the cavity by depth-first search over conflicting tetrahedra.
         self.cavity.clear();
         self.boundary.clear();
         self.stack.clear();
@@ -565,15 +606,16 @@ impl<'a> Builder<'a> {
         self.stack.push(seed);
         while let Some(t) = self.stack.pop() {
             self.cavity.push(t);
+            let slot = self.t[t as usize];
             // The four neighbours' marks and slots are scattered in memory: request them
             // all before testing the first (two dependent cache misses each otherwise).
-            for i in 0..4 {
-                let n = (self.t[t as usize].n[i] >> 2) as usize;
+            for a in slot.n {
+                let n = (a >> 2) as usize;
                 prefetch(&self.mark[n]);
                 prefetch(&self.t[n]);
             }
-            for i in 0..4 {
-                let n = self.t[t as usize].n[i] >> 2;
+            for (i, a) in slot.n.into_iter().enumerate() {
+                let n = a >> 2;
                 let m = self.mark[n as usize];
                 if m == yes {
                     continue;
@@ -583,94 +625,92 @@ impl<'a> Builder<'a> {
                     self.stack.push(n);
                 } else {
                     self.mark[n as usize] = no;
-                    self.boundary.push((t, i as u8));
+                    let mut v = slot.v;
+                    v[i] = p;
+                    self.boundary.push(NewTet {
+                        v,
+                        outer: a,
+                        i: i as u8,
+                    });
                 }
             }
         }
         self.stats.cavity_tets += self.cavity.len() as u64;
-        // Star the cavity boundary from p. Boundary faces are read before any cavity slot
-        // is reused.
-        let nb = self.boundary.len();
-        self.links.clear();
+    }
+
+    /// Replaces the cavity by the star of the new point over its boundary: one new tetrahedron per
+    /// boundary face, in the cavity's own slots first. Each is linked to the outer
+    /// neighbour of its face, and its three faces through the new point are paired with the other
+    /// new tetrahedra by the edge opposite the point (each such face is shared by exactly two).
+    #[inline(never)] // a phase of its own in profiles
+    fn star(&mut self) {
+        let stamp = self.epoch;
+        let inf_local = self.pts.len();
+        let mut k = 0u32;
         let mut created_finite = u32::MAX;
-        let mut staged = std::mem::take(&mut self.staged);
-        staged.clear();
-        for &(t, i) in &self.boundary {
-            let mut v = self.t[t as usize].v;
-            v[i as usize] = p;
-            staged.push((v, self.t[t as usize].n[i as usize]));
-        }
-        for &t in &self.cavity {
-            self.t[t as usize].v = [DEAD; 4];
-            self.free.push(t);
-        }
-        for k in 0..nb {
-            let (v, o) = staged[k];
-            let i = self.boundary[k].1 as usize;
-            let u = self.new_tet(v);
-            self.t[u as usize].n[i] = o;
-            self.t[(o >> 2) as usize].n[(o & 3) as usize] = u * 4 + i as u32;
-            self.mark[u as usize] = 0;
-            if created_finite == u32::MAX && !v.contains(&INFINITE) {
+        let boundary = std::mem::take(&mut self.boundary);
+        for (c, f) in boundary.iter().enumerate() {
+            let u = if let Some(&u) = self.cavity.get(c) {
+                u
+            } else if let Some(u) = self.free.pop() {
+                u
+            } else {
+                self.t.push(TetSlot {
+                    v: [DEAD; 4],
+                    n: [u32::MAX; 4],
+                });
+                self.mark.push(0);
+                (self.t.len() - 1) as u32
+            };
+            let i = f.i as usize;
+            self.t[u as usize].v = f.v;
+            self.t[u as usize].n[i] = f.outer;
+            self.t[(f.outer >> 2) as usize].n[(f.outer & 3) as usize] = u * 4 + i as u32;
+            if created_finite == u32::MAX && !f.v.contains(&INFINITE) {
                 created_finite = u;
+            }
+            // Local numbers of the three vertices of the boundary face.
+            let mut l = [0u32; 4];
+            for s in 0..4 {
+                if s != i {
+                    let e = &mut self.local[(f.v[s] as usize).min(inf_local)];
+                    if e.0 != stamp {
+                        *e = (stamp, k);
+                        k += 1;
+                    }
+                    l[s] = e.1;
+                }
             }
             for j in 0..4 {
                 if j == i {
                     continue;
                 }
-                // Face j contains p; it is shared with the new tetrahedron across the edge
-                // formed by the two remaining vertices.
-                let mut e = [0u32; 2];
-                let mut m = 0;
-                for s in 0..4 {
-                    if s != i && s != j {
-                        e[m] = v[s];
-                        m += 1;
-                    }
+                let (s1, s2) = EDGE[i][j];
+                let (lo, hi) = (l[s1].min(l[s2]) as usize, l[s1].max(l[s2]) as usize);
+                let key = hi * (hi - 1) / 2 + lo;
+                if key >= self.table.len() {
+                    self.table.resize((key + 1).next_power_of_two(), u32::MAX);
                 }
-                self.links.push((e[0], e[1], u * 4 + j as u32));
+                let here = u * 4 + j as u32;
+                let g = self.table[key];
+                if g == u32::MAX {
+                    self.table[key] = here;
+                } else {
+                    self.table[key] = u32::MAX;
+                    self.t[u as usize].n[j] = g;
+                    self.t[(g >> 2) as usize].n[(g & 3) as usize] = here;
+                }
             }
         }
-        self.link_faces();
-        self.staged = staged;
+        // Cavity slots the star did not need (only when it has fewer tetrahedra than the
+        // cavity) are freed.
+        for c in boundary.len()..self.cavity.len() {
+            let t = self.cavity[c];
+            self.t[t as usize].v = [DEAD; 4];
+            self.free.push(t);
+        }
+        self.boundary = boundary;
         self.last = created_finite;
-    }
-
-    /// Connects the new tetrahedra to each other: each face through the new point is shared
-    /// by exactly two of them, identified by its edge opposite the new point. Cavity vertices
-    /// get small local numbers so the pairing is a direct table lookup (no hashing, no sort).
-    fn link_faces(&mut self) {
-        let stamp = self.epoch;
-        let mut k = 0u32;
-        for l in &self.links {
-            for v in [l.0, l.1] {
-                let e = &mut self.local[(v as usize).min(self.pts.len())];
-                if e.0 != stamp {
-                    *e = (stamp, k);
-                    k += 1;
-                }
-            }
-        }
-        let k = k as usize;
-        if self.table.len() < k * k {
-            self.table.resize(k * k, u32::MAX);
-        }
-        for &(a, b, f) in &self.links {
-            let n = self.pts.len();
-            let (la, lb) = (
-                self.local[(a as usize).min(n)].1 as usize,
-                self.local[(b as usize).min(n)].1 as usize,
-            );
-            let slot = la.min(lb) * k + la.max(lb);
-            let g = self.table[slot];
-            if g == u32::MAX {
-                self.table[slot] = f;
-            } else {
-                self.table[slot] = u32::MAX;
-                self.t[(f >> 2) as usize].n[(f & 3) as usize] = g;
-                self.t[(g >> 2) as usize].n[(g & 3) as usize] = f;
-            }
-        }
     }
 
     /// Renumbers so finite tetrahedra come first and drops dead slots. Only the few slots
