@@ -23,6 +23,8 @@
 
 use robust::Coord3D;
 
+mod wide;
+
 /// A point as stored everywhere in the crate.
 pub type P3 = [f64; 3];
 
@@ -51,6 +53,9 @@ fn orient3d_exact(a: &P3, b: &P3, c_: &P3, d: &P3) -> i32 {
     if let Some(s) = lattice::orient3d(a, b, c_, d) {
         return s;
     }
+    if let Some(s) = wide::orient3d(a, b, c_, d) {
+        return s;
+    }
     -sign(robust::orient3d(c(a), c(b), c(c_), c(d)))
 }
 
@@ -69,6 +74,9 @@ pub fn insphere(a: &P3, b: &P3, c_: &P3, d: &P3, e: &P3) -> i32 {
 #[cold]
 fn insphere_exact(a: &P3, b: &P3, c_: &P3, d: &P3, e: &P3) -> i32 {
     if let Some(s) = lattice::insphere(b, a, c_, d, e) {
+        return s;
+    }
+    if let Some(s) = wide::insphere_shewchuk(b, a, c_, d, e) {
         return s;
     }
     sign(robust::insphere(c(b), c(a), c(c_), c(d), c(e)))

@@ -1,0 +1,317 @@
+//! Exact signs of orient3d and insphere by fixed-width integer arithmetic, for the
+//! exact ties of decimal input (box corners written as 123.4 are cospherical and coplanar,
+//! but not on a small binary lattice).
+//!
+//! Every finite `f64` is `m · 2^e` with an integer `m` of at most 53 bits. When the 15 (or
+//! 12) coordinates of one predicate call span few enough binary orders of magnitude, all
+//! are integers at the scale `2^-E` of the smallest `e`, and the determinant is evaluated
+//! exactly in integers of [`LIMBS`] 64-bit words. Scaling by a power of two is exact, so
+//! the sign is that of the determinant of the coordinates as given. Calls whose
+//! coordinates span too many orders (a coordinate of 1e-30 beside one of 1e3) return
+//! `None` and are left to the adaptive expansion arithmetic.
+//!
+//! Why not only the adaptive arithmetic: on an exact tie it runs to its last stage, whose
+//! `robust` implementation zeroes about 190 KB of expansion buffers per call; on box corners
+//! that dominated the whole tetrahedralization.
+
+/// 64-bit words of a [`Wide`] magnitude: 640 bits, enough for the insphere determinant
+/// (degree 5) of differences below 2^126 (at most 5 · 126 + 7 bits).
+const LIMBS: usize = 10;
+/// Largest accepted bit length of a scaled coordinate; differences stay below 2^125.
+const MAX_BITS: u32 = 124;
+
+/// A signed integer of up to `64 · LIMBS` bits: sign and little-endian magnitude.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Wide {
+    neg: bool,
+    len: usize,
+    m: [u64; LIMBS],
+}
+
+impl Wide {
+    fn from_i128(x: i128) -> Self {
+        let u = x.unsigned_abs();
+        let mut m = [0u64; LIMBS];
+        m[0] = u as u64;
+        m[1] = (u >> 64) as u64;
+        let len = if m[1] != 0 {
+            2
+        } else if m[0] != 0 {
+            1
+        } else {
+            0
+        };
+        Wide { neg: x < 0, len, m }
+    }
+
+    /// -1, 0 or +1.
+    pub(super) fn signum(&self) -> i32 {
+        if self.len == 0 {
+            0
+        } else if self.neg {
+            -1
+        } else {
+            1
+        }
+    }
+
+    fn trim(mut self) -> Self {
+        while self.len > 0 && self.m[self.len - 1] == 0 {
+            self.len -= 1;
+        }
+        if self.len == 0 {
+            self.neg = false;
+        }
+        self
+    }
+
+    /// Magnitude comparison.
+    fn cmp_mag(&self, o: &Self) -> std::cmp::Ordering {
+        if self.len != o.len {
+            return self.len.cmp(&o.len);
+        }
+        for k in (0..self.len).rev() {
+            if self.m[k] != o.m[k] {
+                return self.m[k].cmp(&o.m[k]);
+            }
+        }
+        std::cmp::Ordering::Equal
+    }
+
+    fn add_signed(self, o: Self, o_neg: bool) -> Self {
+        let mut r = Wide {
+            neg: self.neg,
+            len: 0,
+            m: [0; LIMBS],
+        };
+        if self.neg == o_neg {
+            let n = self.len.max(o.len);
+            let mut carry = 0u64;
+            for k in 0..n {
+                let (s1, c1) = self.m[k].overflowing_add(o.m[k]);
+                let (s2, c2) = s1.overflowing_add(carry);
+                r.m[k] = s2;
+                carry = u64::from(c1) + u64::from(c2);
+            }
+            assert!(n < LIMBS || carry == 0, "Wide overflow");
+            if n < LIMBS {
+                r.m[n] = carry;
+            }
+            r.len = (n + 1).min(LIMBS);
+            r.neg = self.neg;
+        } else {
+            // Subtract the smaller magnitude from the larger; the sign is the larger's.
+            let (big, small, neg) = if self.cmp_mag(&o) != std::cmp::Ordering::Less {
+                (&self, &o, self.neg)
+            } else {
+                (&o, &self, o_neg)
+            };
+            let mut borrow = 0u64;
+            for k in 0..big.len {
+                let (d1, b1) = big.m[k].overflowing_sub(small.m[k]);
+                let (d2, b2) = d1.overflowing_sub(borrow);
+                r.m[k] = d2;
+                borrow = u64::from(b1) + u64::from(b2);
+            }
+            r.len = big.len;
+            r.neg = neg;
+        }
+        r.trim()
+    }
+}
+
+impl std::ops::Add for Wide {
+    type Output = Wide;
+    fn add(self, o: Wide) -> Wide {
+        let n = o.neg;
+        self.add_signed(o, n)
+    }
+}
+
+impl std::ops::Sub for Wide {
+    type Output = Wide;
+    fn sub(self, o: Wide) -> Wide {
+        let n = !o.neg;
+        self.add_signed(o, n)
+    }
+}
+
+impl std::ops::Mul for Wide {
+    type Output = Wide;
+    fn mul(self, o: Wide) -> Wide {
+        let mut r = Wide {
+            neg: self.neg != o.neg,
+            len: 0,
+            m: [0; LIMBS],
+        };
+        if self.len == 0 || o.len == 0 {
+            return Wide::from_i128(0);
+        }
+        assert!(self.len + o.len <= LIMBS, "Wide overflow");
+        for i in 0..self.len {
+            let mut carry = 0u128;
+            for j in 0..o.len {
+                let t = u128::from(r.m[i + j]) + u128::from(self.m[i]) * u128::from(o.m[j]) + carry;
+                r.m[i + j] = t as u64;
+                carry = t >> 64;
+            }
+            r.m[i + o.len] = carry as u64;
+        }
+        r.len = self.len + o.len;
+        r.trim()
+    }
+}
+
+/// The coordinates as integers at one common power-of-two scale, if their bit lengths at
+/// that scale stay within [`MAX_BITS`].
+fn scaled<const N: usize>(pts: [&[f64; 3]; N]) -> Option<[[i128; 3]; N]> {
+    let mut parts = [[(0i64, 0i32); 3]; N];
+    let mut e_min = i32::MAX;
+    for (k, p) in pts.iter().enumerate() {
+        for a in 0..3 {
+            let x = p[a];
+            if !x.is_finite() {
+                return None;
+            }
+            if x == 0.0 {
+                continue;
+            }
+            let bits = x.to_bits();
+            let field = ((bits >> 52) & 0x7ff) as i32;
+            let frac = bits & ((1u64 << 52) - 1);
+            let (mut m, mut e) = if field == 0 {
+                (frac, -1074)
+            } else {
+                (frac | (1u64 << 52), field - 1075)
+            };
+            let tz = m.trailing_zeros();
+            m >>= tz;
+            e += tz as i32;
+            parts[k][a] = (if x < 0.0 { -(m as i64) } else { m as i64 }, e);
+            e_min = e_min.min(e);
+        }
+    }
+    let mut out = [[0i128; 3]; N];
+    for k in 0..N {
+        for a in 0..3 {
+            let (m, e) = parts[k][a];
+            if m == 0 {
+                continue;
+            }
+            let shift = (e - e_min) as u32;
+            let len = 64 - m.unsigned_abs().leading_zeros();
+            if len + shift > MAX_BITS {
+                return None;
+            }
+            out[k][a] = i128::from(m) << shift;
+        }
+    }
+    Some(out)
+}
+
+fn diff(p: [i128; 3], o: [i128; 3]) -> [Wide; 3] {
+    [0, 1, 2].map(|a| Wide::from_i128(p[a] - o[a]))
+}
+
+/// Exact sign of `det[b-a, c-a, d-a]` (the crate's orient3d convention), or `None` when the
+/// coordinates span too many binary orders of magnitude.
+pub(super) fn orient3d(a: &[f64; 3], b: &[f64; 3], c: &[f64; 3], d: &[f64; 3]) -> Option<i32> {
+    let [a, b, c, d] = scaled([a, b, c, d])?;
+    let (u, v, w) = (diff(b, a), diff(c, a), diff(d, a));
+    let det =
+        u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) + u[2] * (v[0] * w[1] - v[1] * w[0]);
+    Some(det.signum())
+}
+
+/// Exact sign of Shewchuk's insphere determinant (positive when `e` is inside the sphere
+/// through `a, b, c, d` in *his* positive orientation), or `None` as for [`orient3d`].
+pub(super) fn insphere_shewchuk(a: &[f64; 3], b: &[f64; 3], c: &[f64; 3], d: &[f64; 3], e: &[f64; 3]) -> Option<i32> {
+    let [a, b, c, d, e] = scaled([a, b, c, d, e])?;
+    let (a, b, c, d) = (diff(a, e), diff(b, e), diff(c, e), diff(d, e));
+    let ab = a[0] * b[1] - b[0] * a[1];
+    let bc = b[0] * c[1] - c[0] * b[1];
+    let cd = c[0] * d[1] - d[0] * c[1];
+    let da = d[0] * a[1] - a[0] * d[1];
+    let ac = a[0] * c[1] - c[0] * a[1];
+    let bd = b[0] * d[1] - d[0] * b[1];
+    let abc = a[2] * bc - b[2] * ac + c[2] * ab;
+    let bcd = b[2] * cd - c[2] * bd + d[2] * bc;
+    let cda = c[2] * da + d[2] * ac + a[2] * cd;
+    let dab = d[2] * ab + a[2] * bd + b[2] * da;
+    let lift = |p: [Wide; 3]| p[0] * p[0] + p[1] * p[1] + p[2] * p[2];
+    let det = (lift(d) * abc - lift(c) * dab) + (lift(b) * cda - lift(a) * bcd);
+    Some(det.signum())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn w(x: i128) -> Wide {
+        Wide::from_i128(x)
+    }
+
+    #[test]
+    fn arithmetic_matches_i128_where_it_fits() {
+        let mut r = crate::delaunay::SplitMix64(3);
+        for _ in 0..20_000 {
+            let x = (r.next_u64() as i64 >> (r.below(60) as u32)) as i128;
+            let y = (r.next_u64() as i64 >> (r.below(60) as u32)) as i128;
+            assert_eq!((w(x) + w(y)).signum(), (x + y).signum() as i32);
+            assert_eq!((w(x) - w(y)).signum(), (x - y).signum() as i32);
+            assert_eq!((w(x) * w(y)).signum(), (x * y).signum() as i32);
+            // (x*y) - (x*y) is zero, (x*y + 1) - x*y is one: carries across limbs.
+            let p = w(x) * w(y);
+            assert_eq!((p - w(x) * w(y)).signum(), 0);
+            assert_eq!((p + w(1) - p).signum(), 1);
+        }
+        // Squares of 2^126 - 1 carry through every limb of the product.
+        let big = w((1i128 << 126) - 1);
+        let sq = big * big;
+        assert_eq!((sq * big * big - sq * sq).signum(), 0);
+        assert_eq!((sq * big * big + w(-1) - sq * sq).signum(), -1);
+    }
+
+    #[test]
+    fn decimal_ties_are_exact_zeros_and_signs_agree_with_robust() {
+        // Box corners in decimal steps: cospherical and coplanar quintuples everywhere.
+        let mut r = crate::delaunay::SplitMix64(11);
+        let mut zeros = 0;
+        for _ in 0..20_000 {
+            let base = [0; 3].map(|_| r.below(5000) as f64 * 0.1);
+            let size = [0; 3].map(|_| 0.1 * (1 + r.below(60)) as f64);
+            let corner = |r: &mut crate::delaunay::SplitMix64| {
+                let k = r.below(8);
+                [0, 1, 2].map(|a| base[a] + if k >> a & 1 == 1 { size[a] } else { 0.0 })
+            };
+            let q = [0; 5].map(|_| corner(&mut r));
+            let cc = |p: &[f64; 3]| robust::Coord3D {
+                x: p[0],
+                y: p[1],
+                z: p[2],
+            };
+            let want = robust::insphere(cc(&q[0]), cc(&q[1]), cc(&q[2]), cc(&q[3]), cc(&q[4]));
+            let got = insphere_shewchuk(&q[0], &q[1], &q[2], &q[3], &q[4]).expect("in range");
+            assert_eq!(got, (want > 0.0) as i32 - (want < 0.0) as i32, "{q:?}");
+            zeros += usize::from(got == 0);
+            let want_o = -robust::orient3d(cc(&q[0]), cc(&q[1]), cc(&q[2]), cc(&q[3]));
+            let got_o = orient3d(&q[0], &q[1], &q[2], &q[3]).expect("in range");
+            assert_eq!(got_o, (want_o > 0.0) as i32 - (want_o < 0.0) as i32, "{q:?}");
+        }
+        assert!(zeros > 1000, "the test must exercise ties: {zeros}");
+    }
+
+    #[test]
+    fn wide_ranges_are_declined() {
+        let a = [1e-30, 0.0, 0.0];
+        let b = [1e3, 0.0, 0.0];
+        assert!(orient3d(&a, &b, &[0.0, 1.0, 0.0], &[0.0, 0.0, 1.0]).is_none());
+        assert!(orient3d(&[f64::NAN, 0.0, 0.0], &b, &b, &b).is_none());
+        // Subnormals on their own are fine: one scale covers them.
+        let t = f64::from_bits(1);
+        assert_eq!(
+            orient3d(&[0.0; 3], &[t, 0.0, 0.0], &[0.0, t, 0.0], &[0.0, 0.0, t]),
+            Some(1)
+        );
+    }
+}
