@@ -369,7 +369,7 @@ fn build_complex(m: &portalfind::model::Model, path: &std::path::Path, how: Cell
         Subdivision::Delaunay => {
             let mut bar = LazyBar::new();
             let t0 = Instant::now();
-            let t = Tetrahedralization::build_with_progress(&m.vertices, 0x5eed, &mut |d, n| {
+            let t = Tetrahedralization::build_with_progress(&m.vertices, 0x5eed, true, &mut |d, n| {
                 bar.update("tetrahedralizing", d, n)
             })
             .with_context(|| format!("cannot tetrahedralize {}", path.display()))?;
@@ -436,11 +436,12 @@ fn tetra(path: &std::path::Path, validate: bool) -> Result<()> {
     println!("hull faces   {}", t.num_hull_faces());
     let st = t.stats();
     println!(
-        "build time   {build:.3} s (rank {:.3}, order {:.3}, insert {:.3}, compact {:.3}; {:.2} walk steps and {:.2} cavity tetrahedra per point)",
+        "build time   {build:.3} s (rank {:.3}, order {:.3}, insert {:.3}, compact {:.3}, canonical numbering {:.3}; {:.2} walk steps and {:.2} cavity tetrahedra per point)",
         st.seconds[0],
         st.seconds[1],
         st.seconds[2],
         st.seconds[3],
+        st.seconds[4],
         st.walk_steps as f64 / st.input_points as f64,
         st.cavity_tets as f64 / st.input_points as f64
     );

@@ -81,8 +81,9 @@ pub struct BuildStats {
     /// Tetrahedra removed in cavities (total over all insertions).
     pub cavity_tets: u64,
     /// Seconds spent ranking (lexicographic sort, duplicates), ordering (BRIO + Hilbert),
-    /// inserting, and compacting the arrays.
-    pub seconds: [f64; 4],
+    /// inserting, compacting the arrays (and mapping vertex ids back to input indices), and
+    /// renumbering canonically (0 when skipped).
+    pub seconds: [f64; 5],
 }
 
 /// A Delaunay tetrahedralization of a point set, covering its convex hull.
@@ -173,14 +174,17 @@ impl Tetrahedralization {
     /// The result does not depend on the seed (ties are broken symbolically); only the
     /// running time does.
     pub fn build_with_seed(points: &[P3], seed: u64) -> Result<Self, DelaunayError> {
-        Self::build_with_progress(points, seed, &mut |_, _| {})
+        Self::build_with_progress(points, seed, true, &mut |_, _| {})
     }
 
     /// [`Tetrahedralization::build_with_seed`], reporting `(inserted, total)` every 16384
-    /// insertions.
+    /// insertions. With `canonical` false the canonical renumbering is skipped: the
+    /// tetrahedralization is the same, but tetrahedron and face ids depend on the insertion
+    /// process. That is the work CGAL's construction does, and what `bench` times.
     pub fn build_with_progress(
         points: &[P3],
         seed: u64,
+        canonical: bool,
         progress: &mut dyn FnMut(usize, usize),
     ) -> Result<Self, DelaunayError> {
         let n = points.len();
@@ -261,6 +265,13 @@ impl Tetrahedralization {
         }
         let t_insert = t_start.elapsed().as_secs_f64();
         let (mut slots, n_finite) = b.compact();
+        let t_compact = t_start.elapsed().as_secs_f64();
+        if canonical {
+            // Canonical order in the builder's vertex ids (Hilbert order: neighbouring
+            // tetrahedra stay near each other in memory), then back to input ids.
+            slots = canonical_numbering(slots, n_finite, storage.len());
+        }
+        let t_canonical = t_start.elapsed().as_secs_f64();
         for s in &mut slots {
             s.v = s.v.map(|x| if x >= DEAD { x } else { storage[x as usize] });
         }
@@ -268,7 +279,8 @@ impl Tetrahedralization {
             t_rank,
             t_sort - t_rank,
             t_insert - t_sort,
-            t_start.elapsed().as_secs_f64() - t_insert,
+            t_compact - t_insert + (t_start.elapsed().as_secs_f64() - t_canonical),
+            t_canonical - t_compact,
         ];
         let stats = std::mem::take(&mut b.stats);
         drop(b);
@@ -515,26 +527,32 @@ impl<'a> Builder<'a> {
 
     /// Remembering stochastic walk from the last created tetrahedron to one whose closure
     /// contains `p`, or to an infinite tetrahedron whose hull face `p` is strictly beyond.
-    fn locate(&mut self, p: u32) -> u32 {
+    /// Also says whether `p` is strictly inside the finite tetrahedron found (every face's
+    /// orientation positive; the face the walk came through is positive because it was
+    /// crossed), in which case it is certainly in conflict with it.
+    fn locate(&mut self, p: u32) -> (u32, bool) {
         let mut t = self.last;
         let mut prev = u32::MAX;
         loop {
             let v = self.t[t as usize].v;
             if v.contains(&INFINITE) {
-                return t;
+                return (t, false);
             }
             let r = (self.rng.next_u64() & 3) as usize;
             let mut next = None;
+            let mut on_face = false;
             for j in 0..4 {
                 let i = (r + j) & 3;
                 let n = self.t[t as usize].n[i] >> 2;
                 if n == prev {
                     continue;
                 }
-                if self.orient_with(&v, i, p) < 0 {
+                let o = self.orient_with(&v, i, p);
+                if o < 0 {
                     next = Some(n);
                     break;
                 }
+                on_face |= o == 0;
             }
             self.stats.walk_steps += 1;
             match next {
@@ -542,7 +560,7 @@ impl<'a> Builder<'a> {
                     prev = t;
                     t = n;
                 }
-                None => return t,
+                None => return (t, !on_face),
             }
         }
     }
@@ -577,8 +595,8 @@ impl<'a> Builder<'a> {
     }
 
     fn insert(&mut self, p: u32) {
-        let seed = self.locate(p);
-        self.grow_cavity(seed, p);
+        let (seed, inside) = self.locate(p);
+        self.grow_cavity(seed, inside, p);
         self.star();
     }
 
@@ -586,7 +604,7 @@ impl<'a> Builder<'a> {
     /// into `cavity`, and the cavity's boundary faces, already turned into the new
     /// tetrahedra with `p` at the face's opposite slot, into `boundary`.
     #[inline(never)] // a phase of its own in profiles
-    fn grow_cavity(&mut self, mut seed: u32, p: u32) {
+    fn grow_cavity(&mut self, mut seed: u32, inside: bool, p: u32) {
         // Marks: 2*epoch = in cavity, 2*epoch+1 = tested and not in conflict. Marks of
         // earlier insertions are smaller, so none need clearing, until the epoch wraps.
         if self.epoch >= u32::MAX / 2 - 2 {
@@ -594,7 +612,8 @@ impl<'a> Builder<'a> {
             self.epoch = 0;
         }
         self.epoch += 1;
-        if !self.in_conflict(seed, p) {
+        // A point strictly inside the located tetrahedron is inside its circumsphere.
+        if !inside && !self.in_conflict(seed, p) {
             seed = self.seed_on_boundary(seed, p);
             self.epoch += 1;
         }
@@ -787,6 +806,108 @@ impl<'a> Builder<'a> {
         self.mark = Vec::new();
         (slots, n_finite)
     }
+}
+
+/// The even permutations of four slots, each as `new slot k takes old slot PERM[..][k]`.
+const EVEN: [[usize; 4]; 12] = [
+    [0, 1, 2, 3],
+    [0, 2, 3, 1],
+    [0, 3, 1, 2],
+    [1, 0, 3, 2],
+    [1, 2, 0, 3],
+    [1, 3, 2, 0],
+    [2, 0, 1, 3],
+    [2, 1, 3, 0],
+    [2, 3, 0, 1],
+    [3, 0, 2, 1],
+    [3, 1, 0, 2],
+    [3, 2, 1, 0],
+];
+
+/// Renumbers tetrahedra and their slots canonically: within each tetrahedron the smallest
+/// vertex id first, then the smallest of the rest (an even permutation, so orientation is
+/// kept); finite tetrahedra, then infinite ones, in increasing order of their vertex
+/// quadruples. Tetrahedron and face ids then depend only on the point set (the Delaunay
+/// tetrahedralization with symbolic perturbation is unique), not on the insertion order,
+/// the seed or the builder's slot reuse, so everything built on them (cells, patches, the
+/// order of equal-weight collapses) is reproducible across versions of this module.
+/// Cost: a counting sort by smallest vertex, short sorts within each bucket, and one pass
+/// over the neighbour references.
+fn canonical_numbering(slots: Vec<TetSlot>, n_finite: usize, n_vertices: usize) -> Vec<TetSlot> {
+    let n = slots.len();
+    // INV[k][old slot] = new slot under EVEN[k].
+    const INV: [[u8; 4]; 12] = {
+        let mut inv = [[0u8; 4]; 12];
+        let mut k = 0;
+        while k < 12 {
+            let mut s = 0;
+            while s < 4 {
+                inv[k][EVEN[k][s]] = s as u8;
+                s += 1;
+            }
+            k += 1;
+        }
+        inv
+    };
+    // The even permutation that puts each tetrahedron in canonical slot order: the rows of
+    // EVEN starting with the smallest vertex's slot are 3m..3m+3; of those, the one whose
+    // second slot holds the smallest of the other three vertices.
+    let perm: Vec<u8> = slots
+        .iter()
+        .map(|s| {
+            let v = s.v;
+            let m = (0..4).min_by_key(|&k| v[k]).expect("four slots");
+            (3 * m..3 * m + 3).min_by_key(|&r| v[EVEN[r][1]]).expect("three rows") as u8
+        })
+        .collect();
+    let key = |t: usize| EVEN[perm[t] as usize].map(|o| slots[t].v[o]);
+    // Counting sort by the smallest vertex (INFINITE is never smallest), per class, then
+    // short sorts within each bucket.
+    let mut order: Vec<u32> = Vec::with_capacity(n);
+    let mut start = vec![0u32; n_vertices + 1];
+    for range in [0..n_finite, n_finite..n] {
+        start.iter_mut().for_each(|x| *x = 0);
+        for t in range.clone() {
+            start[slots[t].v[EVEN[perm[t] as usize][0]] as usize + 1] += 1;
+        }
+        for k in 0..n_vertices {
+            start[k + 1] += start[k];
+        }
+        let base = order.len();
+        order.resize(base + range.len(), 0);
+        let mut fill = start.clone();
+        for t in range.clone() {
+            let b = &mut fill[slots[t].v[EVEN[perm[t] as usize][0]] as usize];
+            order[base + *b as usize] = t as u32;
+            *b += 1;
+        }
+        for k in 0..n_vertices {
+            let (a, b) = (base + start[k] as usize, base + start[k + 1] as usize);
+            if b - a > 1 {
+                order[a..b].sort_unstable_by_key(|&t| key(t as usize));
+            }
+        }
+    }
+    let mut new_of = vec![0u32; n];
+    for (k, &t) in order.iter().enumerate() {
+        new_of[t as usize] = k as u32;
+    }
+    order
+        .iter()
+        .map(|&t| {
+            let t = t as usize;
+            let p = EVEN[perm[t] as usize];
+            let s = slots[t];
+            TetSlot {
+                v: p.map(|o| s.v[o]),
+                n: p.map(|o| {
+                    let a = s.n[o];
+                    let (m, f) = ((a >> 2) as usize, (a & 3) as usize);
+                    new_of[m] * 4 + u32::from(INV[perm[m] as usize][f])
+                }),
+            }
+        })
+        .collect()
 }
 
 #[derive(Clone, Copy, Debug)]

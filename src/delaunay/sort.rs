@@ -78,19 +78,20 @@ const DIGIT: u32 = 12;
 /// A sort key and a point index.
 type Keyed = (u64, u32);
 
-/// Stable LSD radix sort by the key's low [`KEY_BITS`] bits.
-fn radix_sort(v: &mut [Keyed], scratch: &mut Vec<Keyed>) {
+/// Stable LSD radix sort by the key's bits `lo..hi`.
+fn radix_sort(v: &mut [Keyed], scratch: &mut Vec<Keyed>, lo: u32, hi: u32) {
+    let bits = |e: &Keyed| (e.0 >> lo) & ((1u64 << (hi - lo)) - 1);
     if v.len() <= 64 {
-        v.sort_by_key(|e| e.0);
+        v.sort_by_key(bits);
         return;
     }
     scratch.clear();
     scratch.resize(v.len(), (0, 0));
-    let mask = (1u64 << DIGIT) - 1;
     let mut count = vec![0usize; 1 << DIGIT];
     let mut src_is_v = true;
-    for pass in 0..KEY_BITS.div_ceil(DIGIT) {
-        let shift = pass * DIGIT;
+    for pass in 0..(hi - lo).div_ceil(DIGIT) {
+        let shift = lo + pass * DIGIT;
+        let mask = (1u64 << DIGIT.min(hi - shift)) - 1;
         let (src, dst): (&[Keyed], &mut [Keyed]) = if src_is_v {
             (&*v, &mut scratch[..])
         } else {
@@ -169,15 +170,15 @@ pub fn brio_hilbert_with_storage(points: &[P3], ids: Vec<u32>, seed: u64) -> (Ve
             (((rounds as u64 - k) << (3 * BITS)) | key(&points[i as usize]), i)
         })
         .collect();
+    // Storage order first: Hilbert key only, stable from input order, so that ties (points
+    // in one cell of the curve) never depend on the seed; the canonical numbering of the
+    // tetrahedra is by these ids. Then the insertion order: a stable sort of that sequence
+    // by round, so each round is in Hilbert order.
     let mut scratch = Vec::new();
-    radix_sort(&mut keyed, &mut scratch);
-    let order: Vec<u32> = keyed.iter().map(|e| e.1).collect();
-    let hmask = (1u64 << (3 * BITS)) - 1;
-    for e in keyed.iter_mut() {
-        e.0 &= hmask;
-    }
-    radix_sort(&mut keyed, &mut scratch);
-    (order, keyed.into_iter().map(|e| e.1).collect())
+    radix_sort(&mut keyed, &mut scratch, 0, 3 * BITS);
+    let storage: Vec<u32> = keyed.iter().map(|e| e.1).collect();
+    radix_sort(&mut keyed, &mut scratch, 3 * BITS, KEY_BITS);
+    (keyed.into_iter().map(|e| e.1).collect(), storage)
 }
 
 #[cfg(test)]

@@ -215,3 +215,28 @@ fn corrupted_tetrahedralizations_fail_validation() {
     bad.rank.push(extra as u32);
     assert!(matches!(bad.validate(), Err(ValidationError::UnusedVertex(_))));
 }
+
+#[test]
+fn canonical_numbering_does_not_depend_on_the_seed() {
+    for pts in [grid(5), random(3000, 8)] {
+        let t = Tetrahedralization::build_with_seed(&pts, 1).unwrap();
+        let u = Tetrahedralization::build_with_seed(&pts, 2).unwrap();
+        t.validate().unwrap();
+        u.validate().unwrap();
+        // Same tetrahedra under the same ids, with the same slot order and neighbours.
+        let ids = |t: &Tetrahedralization| t.tets().map(|(_, v)| v).collect::<Vec<_>>();
+        assert_eq!(ids(&t), ids(&u));
+        for (i, _) in t.tets() {
+            for f in 0..4 {
+                assert_eq!(t.neighbor(i, f), u.neighbor(i, f));
+            }
+        }
+        assert_eq!(t.hull_faces().collect::<Vec<_>>(), u.hull_faces().collect::<Vec<_>>());
+        // Without the renumbering the ids follow the insertion process (so they differ),
+        // but the tetrahedra are the same.
+        let raw = Tetrahedralization::build_with_progress(&pts, 2, false, &mut |_, _| {}).unwrap();
+        raw.validate().unwrap();
+        assert_ne!(ids(&raw), ids(&u));
+        assert_eq!(canonical(&t), canonical(&raw));
+    }
+}
