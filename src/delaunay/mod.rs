@@ -756,26 +756,29 @@ impl<'a> Builder<'a> {
             }
         }
         debug_assert_eq!(holes.len(), movers.len());
-        // Old index -> new index of every moved slot.
-        let moved: std::collections::HashMap<u32, u32> = movers
-            .iter()
-            .zip(&holes)
-            .map(|(&from, &to)| (from, to))
-            .chain(
-                infinite
-                    .iter()
-                    .enumerate()
-                    .map(|(k, &from)| (from, (n_finite + k) as u32)),
-            )
-            .collect();
-        let remap = |a: u32| moved.get(&(a >> 2)).map_or(a, |&t| t * 4 + (a & 3));
+        // Old index -> new index + 1 of every moved slot, 0 for the others (a zeroed
+        // allocation: pages never written cost nothing).
+        let mut moved_to = vec![0u32; self.t.len()];
+        let mut moved: Vec<u32> = Vec::with_capacity(movers.len() + infinite.len());
+        for (&from, &to) in movers.iter().zip(&holes) {
+            moved_to[from as usize] = to + 1;
+            moved.push(from);
+        }
+        for (k, &from) in infinite.iter().enumerate() {
+            moved_to[from as usize] = (n_finite + k) as u32 + 1;
+            moved.push(from);
+        }
+        let remap = |a: u32| match moved_to[(a >> 2) as usize] {
+            0 => a,
+            t => (t - 1) * 4 + (a & 3),
+        };
         // New contents of the moved slots, read before anything is overwritten.
         let placed: Vec<(u32, TetSlot)> = moved
             .iter()
-            .map(|(&from, &to)| {
+            .map(|&from| {
                 let s = self.t[from as usize];
                 (
-                    to,
+                    moved_to[from as usize] - 1,
                     TetSlot {
                         v: s.v,
                         n: s.n.map(remap),
