@@ -240,3 +240,58 @@ fn canonical_numbering_does_not_depend_on_the_seed() {
         assert_eq!(canonical(&t), canonical(&raw));
     }
 }
+
+/// Degenerate mixtures through every predicate path (filter, lattice, wide integers, the
+/// adaptive expansions), many sizes and seeds: each result validates, and two seeds give
+/// the same ids.
+#[test]
+fn degenerate_mixtures_validate_for_many_seeds() {
+    let mut r = SplitMix64(2026);
+    for case in 0..80u64 {
+        let n = 8 + r.below(300);
+        let dec = |r: &mut SplitMix64, k: usize| r.below(k) as f64 * 0.1;
+        let pts: Vec<P3> = match case % 4 {
+            // Decimal box corners (cospherical and coplanar ties, the wide-integer path).
+            0 => (0..n.div_ceil(8))
+                .flat_map(|_| {
+                    let o = [0; 3].map(|_| dec(&mut r, 200));
+                    let s = [0; 3].map(|_| 0.1 + dec(&mut r, 30));
+                    (0..8).map(move |c| [0, 1, 2].map(|a| o[a] + if c >> a & 1 == 1 { s[a] } else { 0.0 }))
+                })
+                .collect(),
+            // Integer points on a few spheres around the origin, with duplicates.
+            1 => (0..n)
+                .filter_map(|_| {
+                    let p = [0; 3].map(|_| r.below(11) as f64 - 5.0);
+                    let d = p.iter().map(|x| x * x).sum::<f64>();
+                    [25.0, 50.0, 9.0].contains(&d).then_some(p)
+                })
+                .chain([
+                    [0.0, 0.0, 0.0],
+                    [5.0, 0.0, 0.0],
+                    [0.0, 5.0, 0.0],
+                    [0.0, 0.0, 5.0],
+                    [5.0, 0.0, 0.0],
+                ])
+                .collect(),
+            // Decimal points on three planes.
+            2 => (0..n)
+                .map(|i| [dec(&mut r, 50), dec(&mut r, 50), [0.0, 0.1, 0.3][i % 3]])
+                .collect(),
+            // Magnitudes 1e-3 and 1e3 together: some calls span too many binary orders for
+            // the integer paths and go to the adaptive expansions.
+            _ => (0..n)
+                .map(|i| {
+                    let s = if i % 2 == 0 { 1e-3 } else { 1e3 };
+                    [0; 3].map(|_| (r.next_u64() >> 11) as f64 / (1u64 << 53) as f64 * s)
+                })
+                .chain((0..8).map(|c| [0, 1, 2].map(|a| if c >> a & 1 == 1 { 1e-3 } else { 0.0 })))
+                .collect(),
+        };
+        let t = Tetrahedralization::build_with_seed(&pts, case).unwrap_or_else(|e| panic!("case {case}: {e}"));
+        t.validate().unwrap_or_else(|e| panic!("case {case}: {e}"));
+        let u = Tetrahedralization::build_with_seed(&pts, case + 1000).unwrap();
+        let ids = |t: &Tetrahedralization| t.tets().map(|(_, v)| v).collect::<Vec<_>>();
+        assert_eq!(ids(&t), ids(&u), "case {case}");
+    }
+}
