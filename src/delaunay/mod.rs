@@ -29,7 +29,9 @@ pub use sort::SplitMix64;
 pub use validate::{ValidationError, ValidationReport};
 
 use crate::ids::{TetId, VertexId};
-use crate::predicates::{LatticePoints, P3, insphere, orient3d, sos_tie};
+use crate::predicates::{
+    LatticePoints, P3, in_filter_range, insphere, insphere_in_range, orient3d, orient3d_in_range, sos_tie,
+};
 
 /// The vertex slot value of the point at infinity.
 pub const INFINITE: u32 = u32::MAX;
@@ -105,6 +107,8 @@ struct Builder<'a> {
     rank: &'a [u32],
     /// Integer coordinates when the input lies on a small binary lattice.
     lat: Option<&'a LatticePoints>,
+    /// Every point is within the floating-point filters' range (no per-call check).
+    in_range: bool,
     /// Vertices and neighbours side by side: one cache line fetch per tetrahedron visited.
     t: Vec<TetSlot>,
     mark: Vec<u32>,
@@ -399,6 +403,7 @@ impl<'a> Builder<'a> {
             pts,
             rank,
             lat,
+            in_range: pts.iter().all(in_filter_range),
             t: Vec::with_capacity(cap),
             mark: Vec::with_capacity(cap),
             epoch: 0,
@@ -488,7 +493,12 @@ impl<'a> Builder<'a> {
         if let Some(l) = self.lat {
             return l.orient3d(w[0], w[1], w[2], w[3]);
         }
-        orient3d(self.p(w[0]), self.p(w[1]), self.p(w[2]), self.p(w[3]))
+        let (a, b, c, d) = (self.p(w[0]), self.p(w[1]), self.p(w[2]), self.p(w[3]));
+        if self.in_range {
+            orient3d_in_range(a, b, c, d)
+        } else {
+            orient3d(a, b, c, d)
+        }
     }
 
     #[inline(always)]
@@ -498,7 +508,11 @@ impl<'a> Builder<'a> {
             return l.insphere_sos([v[0], v[1], v[2], v[3], p], |x| r[x as usize]);
         }
         let pts = [self.p(v[0]), self.p(v[1]), self.p(v[2]), self.p(v[3]), self.p(p)];
-        let s = insphere(pts[0], pts[1], pts[2], pts[3], pts[4]);
+        let s = if self.in_range {
+            insphere_in_range(pts[0], pts[1], pts[2], pts[3], pts[4])
+        } else {
+            insphere(pts[0], pts[1], pts[2], pts[3], pts[4])
+        };
         if s != 0 {
             return s;
         }
@@ -609,6 +623,7 @@ impl<'a> Builder<'a> {
         // earlier insertions are smaller, so none need clearing, until the epoch wraps.
         if self.epoch >= u32::MAX / 2 - 2 {
             self.mark.iter_mut().for_each(|m| *m = 0);
+            self.local.iter_mut().for_each(|l| *l = (0, 0));
             self.epoch = 0;
         }
         self.epoch += 1;
@@ -827,12 +842,13 @@ const EVEN: [[usize; 4]; 12] = [
     [3, 2, 1, 0],
 ];
 
-/// Renumbers tetrahedra and their slots canonically: within each tetrahedron the smallest
-/// vertex id first, then the smallest of the rest (an even permutation, so orientation is
-/// kept); finite tetrahedra, then infinite ones, in increasing order of their vertex
-/// quadruples. Tetrahedron and face ids then depend only on the point set (the Delaunay
-/// tetrahedralization with symbolic perturbation is unique), not on the insertion order,
-/// the seed or the builder's slot reuse, so everything built on them (cells, patches, the
+/// Renumbers tetrahedra and their slots canonically, in the builder's vertex ids (the
+/// Hilbert storage order, ties by input order): within each tetrahedron the smallest such
+/// id first, then the smallest of the rest (an even permutation, so orientation is kept);
+/// finite tetrahedra, then infinite ones, in increasing order of their id quadruples.
+/// Tetrahedron and face ids then depend only on the input, points and their order (the
+/// Delaunay tetrahedralization with symbolic perturbation is unique), not on the insertion
+/// order, the seed or the builder's slot reuse, so everything built on them (cells, patches, the
 /// order of equal-weight collapses) is reproducible across versions of this module.
 /// Cost: a counting sort by smallest vertex, short sorts within each bucket, and one pass
 /// over the neighbour references.

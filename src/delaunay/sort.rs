@@ -149,8 +149,18 @@ pub fn brio_hilbert_with_storage(points: &[P3], ids: Vec<u32>, seed: u64) -> (Ve
     } else {
         0.0
     };
+    // When the extent is so small that its reciprocal overflows (subnormal coordinates),
+    // divide instead: (p - lo) / ext lies in [0, 1] at any scale.
+    let finite = s.is_finite();
     let key = |p: &P3| {
-        let q = |a: usize| (((p[a] - lo[a]) * s) as u32).min((1 << BITS) - 1);
+        let q = |a: usize| {
+            let t = if finite {
+                (p[a] - lo[a]) * s
+            } else {
+                (p[a] - lo[a]) / ext * ((1u64 << BITS) - 1) as f64
+            };
+            (t as u32).min((1 << BITS) - 1)
+        };
         hilbert_key([q(0), q(1), q(2)])
     };
     // BRIO rounds by independent coin flips (Amenta, Choi & Rote's construction): a point

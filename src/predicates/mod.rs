@@ -41,6 +41,28 @@ fn c(p: &P3) -> Coord3D<f64> {
 /// triangle `abc`. Returns -1, 0 or +1.
 #[inline]
 pub fn orient3d(a: &P3, b: &P3, c_: &P3, d: &P3) -> i32 {
+    if [a, b, c_, d].iter().all(|p| in_filter_range(p)) {
+        orient3d_in_range(a, b, c_, d)
+    } else {
+        orient3d_exact(a, b, c_, d)
+    }
+}
+
+/// Whether the floating-point filters' error bounds hold for a point: each coordinate is 0
+/// or of magnitude in [2^-100, 2^101). Then every nonzero coordinate difference between
+/// such points lies in [2^-152, 2^102), so no product of up to five of them (insphere's
+/// degree) underflows or overflows, as Shewchuk's bounds assume. A subnormal product
+/// breaks them: its rounding error is not relative. Outside the range the exact paths
+/// decide alone.
+#[inline(always)]
+pub fn in_filter_range(p: &P3) -> bool {
+    p.iter()
+        .all(|&x| x == 0.0 || ((x.to_bits() >> 52) & 0x7ff).wrapping_sub(923) <= 200)
+}
+
+/// [`orient3d`] for points the caller has checked with [`in_filter_range`].
+#[inline]
+pub fn orient3d_in_range(a: &P3, b: &P3, c_: &P3, d: &P3) -> i32 {
     // Shewchuk's orient3d is positive when d is *below*; we negate.
     if let Some(s) = orient3d_filter(a, b, c_, d) {
         return -s;
@@ -53,9 +75,10 @@ fn orient3d_exact(a: &P3, b: &P3, c_: &P3, d: &P3) -> i32 {
     if let Some(s) = lattice::orient3d(a, b, c_, d) {
         return s;
     }
-    if let Some(s) = wide::orient3d(a, b, c_, d) {
+    if let Some(s) = wide::orient3d(a, b, c_, d).or_else(|| wide::orient3d_any(a, b, c_, d)) {
         return s;
     }
+    // Only non-finite coordinates get here.
     -sign(robust::orient3d(c(a), c(b), c(c_), c(d)))
 }
 
@@ -63,6 +86,16 @@ fn orient3d_exact(a: &P3, b: &P3, c_: &P3, d: &P3) -> i32 {
 /// through the positively oriented tetrahedron `(a, b, c, d)`, -1 outside, 0 on it.
 #[inline]
 pub fn insphere(a: &P3, b: &P3, c_: &P3, d: &P3, e: &P3) -> i32 {
+    if [a, b, c_, d, e].iter().all(|p| in_filter_range(p)) {
+        insphere_in_range(a, b, c_, d, e)
+    } else {
+        insphere_exact(a, b, c_, d, e)
+    }
+}
+
+/// [`insphere`] for points the caller has checked with [`in_filter_range`].
+#[inline]
+pub fn insphere_in_range(a: &P3, b: &P3, c_: &P3, d: &P3, e: &P3) -> i32 {
     // Shewchuk requires his positive orientation, which is our negative: swapping a and b
     // makes our positive tetrahedron his positive one.
     if let Some(s) = insphere_filter(b, a, c_, d, e) {
@@ -76,9 +109,10 @@ fn insphere_exact(a: &P3, b: &P3, c_: &P3, d: &P3, e: &P3) -> i32 {
     if let Some(s) = lattice::insphere(b, a, c_, d, e) {
         return s;
     }
-    if let Some(s) = wide::insphere_shewchuk(b, a, c_, d, e) {
+    if let Some(s) = wide::insphere_shewchuk(b, a, c_, d, e).or_else(|| wide::insphere_shewchuk_any(b, a, c_, d, e)) {
         return s;
     }
+    // Only non-finite coordinates get here.
     sign(robust::insphere(c(b), c(a), c(c_), c(d), c(e)))
 }
 
@@ -442,6 +476,12 @@ pub fn orient2d_proj(a: &P3, b: &P3, c_: &P3, drop: usize) -> i32 {
         1 => (2, 0),
         _ => (0, 1),
     };
+    if ![a, b, c_].iter().all(|p| in_filter_range(p)) {
+        // Outside the filters' range: the 2D determinant is the 3D one of the projected
+        // points lifted to z = 0 against the apex (0, 0, 1), decided exactly.
+        let lift = |p: &P3| [p[i], p[j], 0.0];
+        return orient3d_exact(&lift(a), &lift(b), &lift(c_), &[0.0, 0.0, 1.0]);
+    }
     let v = robust::orient2d(
         robust::Coord { x: a[i], y: a[j] },
         robust::Coord { x: b[i], y: b[j] },
@@ -559,6 +599,29 @@ mod tests {
         }
         assert!(LatticePoints::detect(&[[0.1, 0.0, 0.0]]).is_none());
         assert!(LatticePoints::detect(&[[1e9, 0.0, 0.0]]).is_none());
+    }
+
+    #[test]
+    fn signs_survive_power_of_two_scaling_into_subnormals_and_huge_values() {
+        // Scaling every coordinate by 2^k is exact and multiplies the determinants by a
+        // positive power of two, so the signs must not change, even where the products
+        // underflow (2^-1060: subnormal coordinates) or would overflow (2^900).
+        let mut r = crate::delaunay::SplitMix64(21);
+        for _ in 0..3000 {
+            let q = [0; 5].map(|_| [0; 3].map(|_| r.below(7) as f64));
+            let want_o = orient3d(&q[0], &q[1], &q[2], &q[3]);
+            let want_s = insphere(&q[0], &q[1], &q[2], &q[3], &q[4]);
+            for k in [-1060, -600, 900] {
+                let f = 2f64.powi(k);
+                let s = q.map(|p| p.map(|x| x * f));
+                assert_eq!(orient3d(&s[0], &s[1], &s[2], &s[3]), want_o, "2^{k} {q:?}");
+                assert_eq!(insphere(&s[0], &s[1], &s[2], &s[3], &s[4]), want_s, "2^{k} {q:?}");
+            }
+        }
+        // A subnormal beside 1: the determinant is t² > 0, which underflows in floating point.
+        let t = f64::from_bits(1);
+        assert_eq!(orient3d(&O, &[t, 0.0, 0.0], &[0.0, t, 0.0], &Z), 1);
+        assert!(!in_filter_range(&[t, 0.0, 0.0]) && in_filter_range(&[1.0, -0.0, 1e30]));
     }
 
     #[test]

@@ -1,47 +1,75 @@
-//! Exact signs of orient3d and insphere by fixed-width integer arithmetic, for the
-//! exact ties of decimal input (box corners written as 123.4 are cospherical and coplanar,
-//! but not on a small binary lattice).
+//! Exact signs of orient3d and insphere by fixed-width integer arithmetic.
 //!
-//! Every finite `f64` is `m · 2^e` with an integer `m` of at most 53 bits. When the 15 (or
-//! 12) coordinates of one predicate call span few enough binary orders of magnitude, all
-//! are integers at the scale `2^-E` of the smallest `e`, and the determinant is evaluated
-//! exactly in integers of [`LIMBS`] 64-bit words. Scaling by a power of two is exact, so
-//! the sign is that of the determinant of the coordinates as given. Calls whose
-//! coordinates span too many orders (a coordinate of 1e-30 beside one of 1e3) return
-//! `None` and are left to the adaptive expansion arithmetic.
+//! Every finite `f64` is `m · 2^e` with an integer `m` of at most 53 bits. At the scale
+//! `2^-E` of the smallest `e` among one predicate call's coordinates, all of them are
+//! integers, and the determinant is evaluated exactly in integers of `L` 64-bit words.
+//! Scaling by a power of two is exact, so the sign is that of the determinant of the
+//! coordinates as given.
+//!
+//! Two widths:
+//! - [`NARROW`] (640 bits) when the call's coordinates span at most 124 bits at their
+//!   common scale: the exact ties of decimal input (box corners written as 123.4 are
+//!   cospherical and coplanar, but not on a small binary lattice), at a few thousand
+//!   instructions per call.
+//! - [`ANY`] (10,624 bits) for every other finite input, down to subnormals beside 1e308:
+//!   slow, but exact where expansion arithmetic is not (Shewchuk's expansions, like his
+//!   filters, assume that no product underflows).
 //!
 //! Why not only the adaptive arithmetic: on an exact tie it runs to its last stage, whose
 //! `robust` implementation zeroes about 190 KB of expansion buffers per call; on box corners
 //! that dominated the whole tetrahedralization.
 
-/// 64-bit words of a [`Wide`] magnitude: 640 bits, enough for the insphere determinant
-/// (degree 5) of differences below 2^126 (at most 5 · 126 + 7 bits).
-const LIMBS: usize = 10;
-/// Largest accepted bit length of a scaled coordinate; differences stay below 2^125.
-const MAX_BITS: u32 = 124;
+/// Words of the narrow width: enough for the insphere determinant (degree 5) of
+/// differences below 2^125 (at most 5 · 125 + 7 bits).
+pub(super) const NARROW: usize = 10;
+/// Largest bit length of a scaled coordinate at the narrow width.
+const NARROW_BITS: u32 = 124;
+/// Words for any finite input: a scaled coordinate has at most 53 + 2045 bits (from 2^-1074
+/// to below 2^1024), differences 2099, the insphere determinant at most 5 · 2099 + 7.
+pub(super) const ANY: usize = 166;
+const ANY_BITS: u32 = 2098;
 
-/// A signed integer of up to `64 · LIMBS` bits: sign and little-endian magnitude.
+/// A signed integer of up to `64 · L` bits: sign and little-endian magnitude.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct Wide {
+pub(super) struct Wide<const L: usize> {
     neg: bool,
     len: usize,
-    m: [u64; LIMBS],
+    m: [u64; L],
 }
 
-impl Wide {
+impl<const L: usize> Wide<L> {
+    fn zero() -> Self {
+        Wide {
+            neg: false,
+            len: 0,
+            m: [0; L],
+        }
+    }
+
+    /// `±m · 2^shift`.
+    fn shifted(m: i64, shift: u32) -> Self {
+        let mut r = Self::zero();
+        let u = m.unsigned_abs();
+        let (word, bit) = ((shift / 64) as usize, shift % 64);
+        assert!(word + 1 < L, "Wide overflow");
+        r.m[word] = u << bit;
+        if bit > 0 {
+            r.m[word + 1] = u >> (64 - bit);
+        }
+        r.len = word + 2;
+        r.neg = m < 0;
+        r.trim()
+    }
+
+    #[cfg(test)]
     fn from_i128(x: i128) -> Self {
         let u = x.unsigned_abs();
-        let mut m = [0u64; LIMBS];
-        m[0] = u as u64;
-        m[1] = (u >> 64) as u64;
-        let len = if m[1] != 0 {
-            2
-        } else if m[0] != 0 {
-            1
-        } else {
-            0
-        };
-        Wide { neg: x < 0, len, m }
+        let mut r = Self::zero();
+        r.m[0] = u as u64;
+        r.m[1] = (u >> 64) as u64;
+        r.len = 2;
+        r.neg = x < 0;
+        r.trim()
     }
 
     /// -1, 0 or +1.
@@ -79,11 +107,7 @@ impl Wide {
     }
 
     fn add_signed(self, o: Self, o_neg: bool) -> Self {
-        let mut r = Wide {
-            neg: self.neg,
-            len: 0,
-            m: [0; LIMBS],
-        };
+        let mut r = Self::zero();
         if self.neg == o_neg {
             let n = self.len.max(o.len);
             let mut carry = 0u64;
@@ -93,11 +117,11 @@ impl Wide {
                 r.m[k] = s2;
                 carry = u64::from(c1) + u64::from(c2);
             }
-            assert!(n < LIMBS || carry == 0, "Wide overflow");
-            if n < LIMBS {
+            assert!(n < L || carry == 0, "Wide overflow");
+            if n < L {
                 r.m[n] = carry;
             }
-            r.len = (n + 1).min(LIMBS);
+            r.len = (n + 1).min(L);
             r.neg = self.neg;
         } else {
             // Subtract the smaller magnitude from the larger; the sign is the larger's.
@@ -120,34 +144,30 @@ impl Wide {
     }
 }
 
-impl std::ops::Add for Wide {
-    type Output = Wide;
-    fn add(self, o: Wide) -> Wide {
+impl<const L: usize> std::ops::Add for Wide<L> {
+    type Output = Wide<L>;
+    fn add(self, o: Wide<L>) -> Wide<L> {
         let n = o.neg;
         self.add_signed(o, n)
     }
 }
 
-impl std::ops::Sub for Wide {
-    type Output = Wide;
-    fn sub(self, o: Wide) -> Wide {
+impl<const L: usize> std::ops::Sub for Wide<L> {
+    type Output = Wide<L>;
+    fn sub(self, o: Wide<L>) -> Wide<L> {
         let n = !o.neg;
         self.add_signed(o, n)
     }
 }
 
-impl std::ops::Mul for Wide {
-    type Output = Wide;
-    fn mul(self, o: Wide) -> Wide {
-        let mut r = Wide {
-            neg: self.neg != o.neg,
-            len: 0,
-            m: [0; LIMBS],
-        };
+impl<const L: usize> std::ops::Mul for Wide<L> {
+    type Output = Wide<L>;
+    fn mul(self, o: Wide<L>) -> Wide<L> {
         if self.len == 0 || o.len == 0 {
-            return Wide::from_i128(0);
+            return Self::zero();
         }
-        assert!(self.len + o.len <= LIMBS, "Wide overflow");
+        let mut r = Self::zero();
+        assert!(self.len + o.len <= L, "Wide overflow");
         for i in 0..self.len {
             let mut carry = 0u128;
             for j in 0..o.len {
@@ -158,13 +178,14 @@ impl std::ops::Mul for Wide {
             r.m[i + o.len] = carry as u64;
         }
         r.len = self.len + o.len;
+        r.neg = self.neg != o.neg;
         r.trim()
     }
 }
 
-/// The coordinates as integers at one common power-of-two scale, if their bit lengths at
-/// that scale stay within [`MAX_BITS`].
-fn scaled<const N: usize>(pts: [&[f64; 3]; N]) -> Option<[[i128; 3]; N]> {
+/// The coordinates as integers at one common power-of-two scale, if each is finite and
+/// its bit length at that scale stays within `max_bits`.
+fn scaled<const N: usize, const L: usize>(pts: [&[f64; 3]; N], max_bits: u32) -> Option<[[Wide<L>; 3]; N]> {
     let mut parts = [[(0i64, 0i32); 3]; N];
     let mut e_min = i32::MAX;
     for (k, p) in pts.iter().enumerate() {
@@ -191,42 +212,38 @@ fn scaled<const N: usize>(pts: [&[f64; 3]; N]) -> Option<[[i128; 3]; N]> {
             e_min = e_min.min(e);
         }
     }
-    let mut out = [[0i128; 3]; N];
-    for k in 0..N {
-        for a in 0..3 {
-            let (m, e) = parts[k][a];
-            if m == 0 {
-                continue;
-            }
-            let shift = (e - e_min) as u32;
-            let len = 64 - m.unsigned_abs().leading_zeros();
-            if len + shift > MAX_BITS {
+    for part in &parts {
+        for &(m, e) in part {
+            if m != 0 && 64 - m.unsigned_abs().leading_zeros() + (e - e_min) as u32 > max_bits {
                 return None;
             }
-            out[k][a] = i128::from(m) << shift;
         }
     }
-    Some(out)
+    Some(parts.map(|p| {
+        p.map(|(m, e)| {
+            if m == 0 {
+                Wide::zero()
+            } else {
+                Wide::shifted(m, (e - e_min) as u32)
+            }
+        })
+    }))
 }
 
-fn diff(p: [i128; 3], o: [i128; 3]) -> [Wide; 3] {
-    [0, 1, 2].map(|a| Wide::from_i128(p[a] - o[a]))
+fn diff<const L: usize>(p: [Wide<L>; 3], o: [Wide<L>; 3]) -> [Wide<L>; 3] {
+    [0, 1, 2].map(|a| p[a] - o[a])
 }
 
-/// Exact sign of `det[b-a, c-a, d-a]` (the crate's orient3d convention), or `None` when the
-/// coordinates span too many binary orders of magnitude.
-pub(super) fn orient3d(a: &[f64; 3], b: &[f64; 3], c: &[f64; 3], d: &[f64; 3]) -> Option<i32> {
-    let [a, b, c, d] = scaled([a, b, c, d])?;
+fn orient3d_in<const L: usize>(pts: [&[f64; 3]; 4], max_bits: u32) -> Option<i32> {
+    let [a, b, c, d] = scaled::<4, L>(pts, max_bits)?;
     let (u, v, w) = (diff(b, a), diff(c, a), diff(d, a));
     let det =
         u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) + u[2] * (v[0] * w[1] - v[1] * w[0]);
     Some(det.signum())
 }
 
-/// Exact sign of Shewchuk's insphere determinant (positive when `e` is inside the sphere
-/// through `a, b, c, d` in *his* positive orientation), or `None` as for [`orient3d`].
-pub(super) fn insphere_shewchuk(a: &[f64; 3], b: &[f64; 3], c: &[f64; 3], d: &[f64; 3], e: &[f64; 3]) -> Option<i32> {
-    let [a, b, c, d, e] = scaled([a, b, c, d, e])?;
+fn insphere_in<const L: usize>(pts: [&[f64; 3]; 5], max_bits: u32) -> Option<i32> {
+    let [a, b, c, d, e] = scaled::<5, L>(pts, max_bits)?;
     let (a, b, c, d) = (diff(a, e), diff(b, e), diff(c, e), diff(d, e));
     let ab = a[0] * b[1] - b[0] * a[1];
     let bc = b[0] * c[1] - c[0] * b[1];
@@ -238,16 +255,45 @@ pub(super) fn insphere_shewchuk(a: &[f64; 3], b: &[f64; 3], c: &[f64; 3], d: &[f
     let bcd = b[2] * cd - c[2] * bd + d[2] * bc;
     let cda = c[2] * da + d[2] * ac + a[2] * cd;
     let dab = d[2] * ab + a[2] * bd + b[2] * da;
-    let lift = |p: [Wide; 3]| p[0] * p[0] + p[1] * p[1] + p[2] * p[2];
+    let lift = |p: [Wide<L>; 3]| p[0] * p[0] + p[1] * p[1] + p[2] * p[2];
     let det = (lift(d) * abc - lift(c) * dab) + (lift(b) * cda - lift(a) * bcd);
     Some(det.signum())
+}
+
+/// Exact sign of `det[b-a, c-a, d-a]` (the crate's orient3d convention) at the narrow
+/// width, or `None` when the coordinates span too many binary orders of magnitude.
+pub(super) fn orient3d(a: &[f64; 3], b: &[f64; 3], c: &[f64; 3], d: &[f64; 3]) -> Option<i32> {
+    orient3d_in::<NARROW>([a, b, c, d], NARROW_BITS)
+}
+
+/// [`orient3d`] for any finite coordinates (`None` only for NaN or infinite ones).
+pub(super) fn orient3d_any(a: &[f64; 3], b: &[f64; 3], c: &[f64; 3], d: &[f64; 3]) -> Option<i32> {
+    orient3d_in::<ANY>([a, b, c, d], ANY_BITS)
+}
+
+/// Exact sign of Shewchuk's insphere determinant (positive when `e` is inside the sphere
+/// through `a, b, c, d` in *his* positive orientation) at the narrow width, or `None` as
+/// for [`orient3d`].
+pub(super) fn insphere_shewchuk(a: &[f64; 3], b: &[f64; 3], c: &[f64; 3], d: &[f64; 3], e: &[f64; 3]) -> Option<i32> {
+    insphere_in::<NARROW>([a, b, c, d, e], NARROW_BITS)
+}
+
+/// [`insphere_shewchuk`] for any finite coordinates (`None` only for NaN or infinite ones).
+pub(super) fn insphere_shewchuk_any(
+    a: &[f64; 3],
+    b: &[f64; 3],
+    c: &[f64; 3],
+    d: &[f64; 3],
+    e: &[f64; 3],
+) -> Option<i32> {
+    insphere_in::<ANY>([a, b, c, d, e], ANY_BITS)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    fn w(x: i128) -> Wide {
+    fn w(x: i128) -> Wide<NARROW> {
         Wide::from_i128(x)
     }
 
