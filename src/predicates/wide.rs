@@ -61,7 +61,6 @@ impl<const L: usize> Wide<L> {
         r.trim()
     }
 
-    #[cfg(test)]
     fn from_i128(x: i128) -> Self {
         let u = x.unsigned_abs();
         let mut r = Self::zero();
@@ -183,9 +182,10 @@ impl<const L: usize> std::ops::Mul for Wide<L> {
     }
 }
 
-/// The coordinates as integers at one common power-of-two scale, if each is finite and
-/// its bit length at that scale stays within `max_bits`.
-fn scaled<const N: usize, const L: usize>(pts: [&[f64; 3]; N], max_bits: u32) -> Option<[[Wide<L>; 3]; N]> {
+/// Each coordinate as `(m, e - E)`: its odd integer significand and its exponent above
+/// the smallest exponent `E` of the call, if each is finite and its bit length at that
+/// scale stays within `max_bits`.
+fn decompose<const N: usize>(pts: [&[f64; 3]; N], max_bits: u32) -> Option<[[(i64, u32); 3]; N]> {
     let mut parts = [[(0i64, 0i32); 3]; N];
     let mut e_min = i32::MAX;
     for (k, p) in pts.iter().enumerate() {
@@ -212,39 +212,46 @@ fn scaled<const N: usize, const L: usize>(pts: [&[f64; 3]; N], max_bits: u32) ->
             e_min = e_min.min(e);
         }
     }
-    for part in &parts {
-        for &(m, e) in part {
-            if m != 0 && 64 - m.unsigned_abs().leading_zeros() + (e - e_min) as u32 > max_bits {
-                return None;
+    let mut out = [[(0i64, 0u32); 3]; N];
+    for k in 0..N {
+        for a in 0..3 {
+            let (m, e) = parts[k][a];
+            if m != 0 {
+                let shift = (e - e_min) as u32;
+                if 64 - m.unsigned_abs().leading_zeros() + shift > max_bits {
+                    return None;
+                }
+                out[k][a] = (m, shift);
             }
         }
     }
-    Some(parts.map(|p| {
-        p.map(|(m, e)| {
-            if m == 0 {
-                Wide::zero()
-            } else {
-                Wide::shifted(m, (e - e_min) as u32)
-            }
-        })
-    }))
+    Some(out)
 }
 
-fn diff<const L: usize>(p: [Wide<L>; 3], o: [Wide<L>; 3]) -> [Wide<L>; 3] {
-    [0, 1, 2].map(|a| p[a] - o[a])
+/// The differences `p - o` of scaled coordinates, as `Wide` integers. At the narrow width
+/// the scaled coordinates fit in `i128` (at most 124 bits), so they are subtracted there.
+fn diffs<const N: usize, const L: usize>(parts: [[(i64, u32); 3]; N], o: usize) -> [[Wide<L>; 3]; N] {
+    if L == NARROW {
+        let v = |k: usize, a: usize| i128::from(parts[k][a].0) << parts[k][a].1;
+        std::array::from_fn(|k| [0, 1, 2].map(|a| Wide::from_i128(v(k, a) - v(o, a))))
+    } else {
+        let v = |k: usize, a: usize| match parts[k][a] {
+            (0, _) => Wide::zero(),
+            (m, sh) => Wide::shifted(m, sh),
+        };
+        std::array::from_fn(|k| [0, 1, 2].map(|a| v(k, a) - v(o, a)))
+    }
 }
 
 fn orient3d_in<const L: usize>(pts: [&[f64; 3]; 4], max_bits: u32) -> Option<i32> {
-    let [a, b, c, d] = scaled::<4, L>(pts, max_bits)?;
-    let (u, v, w) = (diff(b, a), diff(c, a), diff(d, a));
+    let [_, u, v, w] = diffs::<4, L>(decompose(pts, max_bits)?, 0);
     let det =
         u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) + u[2] * (v[0] * w[1] - v[1] * w[0]);
     Some(det.signum())
 }
 
 fn insphere_in<const L: usize>(pts: [&[f64; 3]; 5], max_bits: u32) -> Option<i32> {
-    let [a, b, c, d, e] = scaled::<5, L>(pts, max_bits)?;
-    let (a, b, c, d) = (diff(a, e), diff(b, e), diff(c, e), diff(d, e));
+    let [a, b, c, d, _] = diffs::<5, L>(decompose(pts, max_bits)?, 4);
     let ab = a[0] * b[1] - b[0] * a[1];
     let bc = b[0] * c[1] - c[0] * b[1];
     let cd = c[0] * d[1] - d[0] * c[1];
