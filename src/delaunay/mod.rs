@@ -517,7 +517,12 @@ impl<'a> Builder<'a> {
             return s;
         }
         sos_tie([v[0], v[1], v[2], v[3], p].map(|x| r[x as usize]), |q| {
-            orient3d(pts[q[0]], pts[q[1]], pts[q[2]], pts[q[3]])
+            let (a, b, c, d) = (pts[q[0]], pts[q[1]], pts[q[2]], pts[q[3]]);
+            if self.in_range {
+                orient3d_in_range(a, b, c, d)
+            } else {
+                orient3d(a, b, c, d)
+            }
         })
     }
 

@@ -127,6 +127,35 @@ fn sign(v: f64) -> i32 {
     }
 }
 
+/// Number types the exact determinants are evaluated in (`i64`, `i128`, `wide::Wide`).
+trait Exact: Copy + std::ops::Add<Output = Self> + std::ops::Sub<Output = Self> + std::ops::Mul<Output = Self> {}
+impl<T: Copy + std::ops::Add<Output = T> + std::ops::Sub<Output = T> + std::ops::Mul<Output = T>> Exact for T {}
+
+/// `det[u, v, w]`: the orientation determinant of three difference vectors, written once
+/// for every exact number type.
+#[inline(always)]
+fn orient_det<T: Exact>(u: [T; 3], v: [T; 3], w: [T; 3]) -> T {
+    u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) + u[2] * (v[0] * w[1] - v[1] * w[0])
+}
+
+/// Shewchuk's insphere determinant of the differences `a, b, c, d` (each minus the query
+/// point), in his sign convention, written once for every exact number type.
+#[inline(always)]
+fn insphere_det<T: Exact>(a: [T; 3], b: [T; 3], c: [T; 3], d: [T; 3]) -> T {
+    let ab = a[0] * b[1] - b[0] * a[1];
+    let bc = b[0] * c[1] - c[0] * b[1];
+    let cd = c[0] * d[1] - d[0] * c[1];
+    let da = d[0] * a[1] - a[0] * d[1];
+    let ac = a[0] * c[1] - c[0] * a[1];
+    let bd = b[0] * d[1] - d[0] * b[1];
+    let abc = a[2] * bc - b[2] * ac + c[2] * ab;
+    let bcd = b[2] * cd - c[2] * bd + d[2] * bc;
+    let cda = c[2] * da + d[2] * ac + a[2] * cd;
+    let dab = d[2] * ab + a[2] * bd + b[2] * da;
+    let lift = |p: [T; 3]| p[0] * p[0] + p[1] * p[1] + p[2] * p[2];
+    (lift(d) * abc - lift(c) * dab) + (lift(b) * cda - lift(a) * bcd)
+}
+
 const EPS: f64 = f64::EPSILON / 2.0; // 2^-53, Shewchuk's epsilon
 const O3D_BOUND: f64 = (7.0 + 56.0 * EPS) * EPS;
 const ISP_BOUND: f64 = (16.0 + 224.0 * EPS) * EPS;
@@ -265,10 +294,7 @@ mod lattice {
     /// Our orient3d convention: sign of det[b-a, c-a, d-a].
     pub fn orient3d(a: &P3, b: &P3, c: &P3, d: &P3) -> Option<i32> {
         let (a, b, c, d) = (to_int(a)?, to_int(b)?, to_int(c)?, to_int(d)?);
-        let (u, v, w) = (sub(b, a), sub(c, a), sub(d, a));
-        let det = u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0])
-            + u[2] * (v[0] * w[1] - v[1] * w[0]);
-        Some(det.signum() as i32)
+        Some(super::orient_det(sub(b, a), sub(c, a), sub(d, a)).signum() as i32)
     }
 
     /// Shewchuk's insphere convention (positive inside for his positive orientation).
@@ -288,29 +314,14 @@ mod lattice {
         })
     }
 
-    pub(super) fn det<T>(a: [i64; 3], b: [i64; 3], c: [i64; 3], d: [i64; 3]) -> i32
-    where
-        T: From<i64>
-            + Copy
-            + Ord
-            + Default
-            + std::ops::Mul<Output = T>
-            + std::ops::Sub<Output = T>
-            + std::ops::Add<Output = T>,
-    {
+    pub(super) fn det<T: From<i64> + Ord + Default + super::Exact>(
+        a: [i64; 3],
+        b: [i64; 3],
+        c: [i64; 3],
+        d: [i64; 3],
+    ) -> i32 {
         let [a, b, c, d] = [a, b, c, d].map(|p| p.map(T::from));
-        let ab = a[0] * b[1] - b[0] * a[1];
-        let bc = b[0] * c[1] - c[0] * b[1];
-        let cd = c[0] * d[1] - d[0] * c[1];
-        let da = d[0] * a[1] - a[0] * d[1];
-        let ac = a[0] * c[1] - c[0] * a[1];
-        let bd = b[0] * d[1] - d[0] * b[1];
-        let abc = a[2] * bc - b[2] * ac + c[2] * ab;
-        let bcd = b[2] * cd - c[2] * bd + d[2] * bc;
-        let cda = c[2] * da + d[2] * ac + a[2] * cd;
-        let dab = d[2] * ab + a[2] * bd + b[2] * da;
-        let lift = |p: [T; 3]| p[0] * p[0] + p[1] * p[1] + p[2] * p[2];
-        let det = (lift(d) * abc - lift(c) * dab) + (lift(b) * cda - lift(a) * bcd);
+        let det = super::insphere_det(a, b, c, d);
         let zero = T::default();
         (det > zero) as i32 - (det < zero) as i32
     }
@@ -450,19 +461,9 @@ impl LatticePoints {
     }
 }
 
-fn det3<T>(u: [i64; 3], v: [i64; 3], w: [i64; 3]) -> i32
-where
-    T: From<i64>
-        + Copy
-        + Ord
-        + Default
-        + std::ops::Mul<Output = T>
-        + std::ops::Sub<Output = T>
-        + std::ops::Add<Output = T>,
-{
+fn det3<T: From<i64> + Ord + Default + Exact>(u: [i64; 3], v: [i64; 3], w: [i64; 3]) -> i32 {
     let [u, v, w] = [u, v, w].map(|p| p.map(T::from));
-    let det =
-        u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) + u[2] * (v[0] * w[1] - v[1] * w[0]);
+    let det = orient_det(u, v, w);
     let zero = T::default();
     (det > zero) as i32 - (det < zero) as i32
 }

@@ -245,26 +245,12 @@ fn diffs<const N: usize, const L: usize>(parts: [[(i64, u32); 3]; N], o: usize) 
 
 fn orient3d_in<const L: usize>(pts: [&[f64; 3]; 4], max_bits: u32) -> Option<i32> {
     let [_, u, v, w] = diffs::<4, L>(decompose(pts, max_bits)?, 0);
-    let det =
-        u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) + u[2] * (v[0] * w[1] - v[1] * w[0]);
-    Some(det.signum())
+    Some(super::orient_det(u, v, w).signum())
 }
 
 fn insphere_in<const L: usize>(pts: [&[f64; 3]; 5], max_bits: u32) -> Option<i32> {
     let [a, b, c, d, _] = diffs::<5, L>(decompose(pts, max_bits)?, 4);
-    let ab = a[0] * b[1] - b[0] * a[1];
-    let bc = b[0] * c[1] - c[0] * b[1];
-    let cd = c[0] * d[1] - d[0] * c[1];
-    let da = d[0] * a[1] - a[0] * d[1];
-    let ac = a[0] * c[1] - c[0] * a[1];
-    let bd = b[0] * d[1] - d[0] * b[1];
-    let abc = a[2] * bc - b[2] * ac + c[2] * ab;
-    let bcd = b[2] * cd - c[2] * bd + d[2] * bc;
-    let cda = c[2] * da + d[2] * ac + a[2] * cd;
-    let dab = d[2] * ab + a[2] * bd + b[2] * da;
-    let lift = |p: [Wide<L>; 3]| p[0] * p[0] + p[1] * p[1] + p[2] * p[2];
-    let det = (lift(d) * abc - lift(c) * dab) + (lift(b) * cda - lift(a) * bcd);
-    Some(det.signum())
+    Some(super::insphere_det(a, b, c, d).signum())
 }
 
 /// Exact sign of `det[b-a, c-a, d-a]` (the crate's orient3d convention) at the narrow
