@@ -142,31 +142,12 @@ struct NewTet {
 /// For a new tetrahedron with the new point in slot `i`, its face `j` (j ≠ i) contains the
 /// new point and the edge between slots `EDGE[i][j]`; the face is shared with the new
 /// tetrahedron on the other side of that edge.
-const EDGE: [[(usize, usize); 4]; 4] = {
-    let mut e = [[(0, 0); 4]; 4];
-    let mut i = 0;
-    while i < 4 {
-        let mut j = 0;
-        while j < 4 {
-            if i != j {
-                let mut s = 0;
-                let mut pair = [0usize; 2];
-                let mut m = 0;
-                while s < 4 {
-                    if s != i && s != j {
-                        pair[m] = s;
-                        m += 1;
-                    }
-                    s += 1;
-                }
-                e[i][j] = (pair[0], pair[1]);
-            }
-            j += 1;
-        }
-        i += 1;
-    }
-    e
-};
+const EDGE: [[(usize, usize); 4]; 4] = [
+    [(0, 0), (2, 3), (1, 3), (1, 2)],
+    [(2, 3), (0, 0), (0, 3), (0, 2)],
+    [(1, 3), (0, 3), (0, 0), (0, 1)],
+    [(1, 2), (0, 2), (0, 1), (0, 0)],
+];
 
 impl Tetrahedralization {
     /// Builds the Delaunay tetrahedralization of `points` with a fixed insertion seed.
@@ -493,7 +474,12 @@ impl<'a> Builder<'a> {
         if let Some(l) = self.lat {
             return l.orient3d(w[0], w[1], w[2], w[3]);
         }
-        let (a, b, c, d) = (self.p(w[0]), self.p(w[1]), self.p(w[2]), self.p(w[3]));
+        self.orient(self.p(w[0]), self.p(w[1]), self.p(w[2]), self.p(w[3]))
+    }
+
+    /// Exact orientation, without the per-call range check when every point passed it.
+    #[inline(always)]
+    fn orient(&self, a: &P3, b: &P3, c: &P3, d: &P3) -> i32 {
         if self.in_range {
             orient3d_in_range(a, b, c, d)
         } else {
@@ -517,12 +503,7 @@ impl<'a> Builder<'a> {
             return s;
         }
         sos_tie([v[0], v[1], v[2], v[3], p].map(|x| r[x as usize]), |q| {
-            let (a, b, c, d) = (pts[q[0]], pts[q[1]], pts[q[2]], pts[q[3]]);
-            if self.in_range {
-                orient3d_in_range(a, b, c, d)
-            } else {
-                orient3d(a, b, c, d)
-            }
+            self.orient(pts[q[0]], pts[q[1]], pts[q[2]], pts[q[3]])
         })
     }
 
