@@ -19,6 +19,7 @@ pub mod ids;
 pub mod model;
 pub mod output;
 pub mod predicates;
+pub mod rooms;
 pub mod scenes;
 pub mod thesis_models;
 pub mod tolerances;

@@ -1,0 +1,270 @@
+//! Clearance: the distance from a point to the nearest model polygon, answered by a
+//! bounding-volume hierarchy over the polygons' fan triangles.
+//!
+//! The tree is built by median splits on the longest axis of the triangles' centroid box
+//! (deterministic: ties broken by triangle index), leaves of at most [`LEAF`] triangles.
+//! A query is a best-first descent that skips every node whose box is farther than the
+//! nearest triangle found so far, so it is exact (up to floating-point rounding of the
+//! point–triangle distance, Ericson 2005, 5.1.5) and typically logarithmic.
+
+use crate::model::Model;
+
+/// Triangles per leaf.
+const LEAF: usize = 4;
+
+type P3 = [f64; 3];
+
+#[derive(Clone, Copy, Debug)]
+struct Node {
+    lo: P3,
+    hi: P3,
+    /// Leaf: `first..first + count` in `tris`; inner: `first` is the right child
+    /// (the left child is the next node) and `count == 0`.
+    first: u32,
+    count: u32,
+}
+
+/// Nearest-polygon distance queries on a model.
+#[derive(Clone, Debug)]
+pub struct ClearanceField {
+    tris: Vec<[P3; 3]>,
+    nodes: Vec<Node>,
+}
+
+fn sub(a: P3, b: P3) -> P3 {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+fn dot(a: P3, b: P3) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+fn add_scaled(a: P3, b: P3, s: f64) -> P3 {
+    [a[0] + b[0] * s, a[1] + b[1] * s, a[2] + b[2] * s]
+}
+
+/// Squared distance from `p` to the box `[lo, hi]` (0 inside).
+fn box_dist2(p: P3, lo: P3, hi: P3) -> f64 {
+    let mut d = 0.0;
+    for k in 0..3 {
+        let e = (lo[k] - p[k]).max(0.0).max(p[k] - hi[k]);
+        d += e * e;
+    }
+    d
+}
+
+/// The point of triangle `t` closest to `p` (Ericson, Real-Time Collision Detection, 5.1.5).
+fn closest_on_triangle(p: P3, t: &[P3; 3]) -> P3 {
+    let [a, b, c] = *t;
+    let ab = sub(b, a);
+    let ac = sub(c, a);
+    let ap = sub(p, a);
+    let d1 = dot(ab, ap);
+    let d2 = dot(ac, ap);
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = sub(p, b);
+    let d3 = dot(ab, bp);
+    let d4 = dot(ac, bp);
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let v = d1 / (d1 - d3);
+        return add_scaled(a, ab, v);
+    }
+    let cp = sub(p, c);
+    let d5 = dot(ab, cp);
+    let d6 = dot(ac, cp);
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let w = d2 / (d2 - d6);
+        return add_scaled(a, ac, w);
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return add_scaled(b, sub(c, b), w);
+    }
+    let denom = 1.0 / (va + vb + vc);
+    let v = vb * denom;
+    let w = vc * denom;
+    add_scaled(add_scaled(a, ab, v), ac, w)
+}
+
+fn tri_dist2(p: P3, t: &[P3; 3]) -> f64 {
+    let q = closest_on_triangle(p, t);
+    let d = sub(p, q);
+    dot(d, d)
+}
+
+impl ClearanceField {
+    /// The field of `model`'s polygons (each fanned into triangles).
+    pub fn new(model: &Model) -> Self {
+        let mut tris = Vec::with_capacity(model.triangle_count());
+        for poly in &model.polygons {
+            let v = &poly.verts;
+            for i in 1..v.len().saturating_sub(1) {
+                tris.push([
+                    model.vertices[v[0].0 as usize],
+                    model.vertices[v[i].0 as usize],
+                    model.vertices[v[i + 1].0 as usize],
+                ]);
+            }
+        }
+        Self::from_triangles(tris)
+    }
+
+    /// The field of a triangle list.
+    pub fn from_triangles(mut tris: Vec<[P3; 3]>) -> Self {
+        let mut nodes = Vec::with_capacity(2 * tris.len() / LEAF + 1);
+        if !tris.is_empty() {
+            let n = tris.len();
+            build(&mut tris, 0, n, &mut nodes);
+        }
+        ClearanceField { tris, nodes }
+    }
+
+    /// Distance from `p` to the nearest triangle (`+inf` for an empty model).
+    pub fn distance(&self, p: P3) -> f64 {
+        if self.nodes.is_empty() {
+            return f64::INFINITY;
+        }
+        let mut best = f64::INFINITY;
+        let mut stack: Vec<(f64, u32)> = Vec::with_capacity(64);
+        stack.push((0.0, 0));
+        while let Some((d, ni)) = stack.pop() {
+            if d >= best {
+                continue;
+            }
+            let n = self.nodes[ni as usize];
+            if n.count > 0 {
+                for t in &self.tris[n.first as usize..(n.first + n.count) as usize] {
+                    best = best.min(tri_dist2(p, t));
+                }
+                continue;
+            }
+            let (l, r) = (ni + 1, n.first);
+            let dl = box_dist2(p, self.nodes[l as usize].lo, self.nodes[l as usize].hi);
+            let dr = box_dist2(p, self.nodes[r as usize].lo, self.nodes[r as usize].hi);
+            // Nearer child last, so it is popped first.
+            if dl < dr {
+                stack.push((dr, r));
+                stack.push((dl, l));
+            } else {
+                stack.push((dl, l));
+                stack.push((dr, r));
+            }
+        }
+        best.sqrt()
+    }
+}
+
+fn build(tris: &mut [[P3; 3]], first: usize, end: usize, nodes: &mut Vec<Node>) -> u32 {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    let mut clo = [f64::INFINITY; 3];
+    let mut chi = [f64::NEG_INFINITY; 3];
+    for t in &tris[first..end] {
+        for v in t {
+            for k in 0..3 {
+                lo[k] = lo[k].min(v[k]);
+                hi[k] = hi[k].max(v[k]);
+            }
+        }
+        let c = centroid(t);
+        for k in 0..3 {
+            clo[k] = clo[k].min(c[k]);
+            chi[k] = chi[k].max(c[k]);
+        }
+    }
+    let me = nodes.len() as u32;
+    nodes.push(Node {
+        lo,
+        hi,
+        first: first as u32,
+        count: (end - first) as u32,
+    });
+    if end - first <= LEAF {
+        return me;
+    }
+    let axis = (0..3)
+        .max_by(|&a, &b| (chi[a] - clo[a]).total_cmp(&(chi[b] - clo[b])))
+        .unwrap_or(0);
+    let mid = (first + end) / 2;
+    tris[first..end].select_nth_unstable_by(mid - first, |a, b| centroid(a)[axis].total_cmp(&centroid(b)[axis]));
+    build(tris, first, mid, nodes);
+    let right = build(tris, mid, end, nodes);
+    nodes[me as usize].first = right;
+    nodes[me as usize].count = 0;
+    me
+}
+
+fn centroid(t: &[P3; 3]) -> P3 {
+    [
+        (t[0][0] + t[1][0] + t[2][0]) / 3.0,
+        (t[0][1] + t[1][1] + t[2][1]) / 3.0,
+        (t[0][2] + t[1][2] + t[2][2]) / 3.0,
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::delaunay::SplitMix64;
+
+    struct Rng(SplitMix64);
+    impl Rng {
+        fn new(seed: u64) -> Self {
+            Rng(SplitMix64(seed))
+        }
+        fn f(&mut self) -> f64 {
+            (self.0.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    fn brute(tris: &[[P3; 3]], p: P3) -> f64 {
+        tris.iter()
+            .map(|t| tri_dist2(p, t))
+            .fold(f64::INFINITY, f64::min)
+            .sqrt()
+    }
+
+    #[test]
+    fn closest_point_regions() {
+        let t = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        // Above the face, off each vertex, off each edge.
+        assert_eq!(closest_on_triangle([0.2, 0.2, 5.0], &t), [0.2, 0.2, 0.0]);
+        assert_eq!(closest_on_triangle([-1.0, -1.0, 0.0], &t), [0.0, 0.0, 0.0]);
+        assert_eq!(closest_on_triangle([3.0, -1.0, 0.0], &t), [1.0, 0.0, 0.0]);
+        assert_eq!(closest_on_triangle([-1.0, 3.0, 0.0], &t), [0.0, 1.0, 0.0]);
+        assert_eq!(closest_on_triangle([0.5, -2.0, 0.0], &t), [0.5, 0.0, 0.0]);
+        assert_eq!(closest_on_triangle([-2.0, 0.5, 0.0], &t), [0.0, 0.5, 0.0]);
+        assert_eq!(closest_on_triangle([1.0, 1.0, 0.0], &t), [0.5, 0.5, 0.0]);
+    }
+
+    #[test]
+    fn tree_matches_brute_force() {
+        let mut rng = Rng::new(7);
+        let mut tris = Vec::new();
+        for _ in 0..500 {
+            let a = [rng.f(), rng.f(), rng.f()];
+            let b = add_scaled(a, [rng.f() - 0.5, rng.f() - 0.5, rng.f() - 0.5], 0.1);
+            let c = add_scaled(a, [rng.f() - 0.5, rng.f() - 0.5, rng.f() - 0.5], 0.1);
+            tris.push([a, b, c]);
+        }
+        let f = ClearanceField::from_triangles(tris.clone());
+        for _ in 0..300 {
+            let p = [rng.f() * 1.4 - 0.2, rng.f() * 1.4 - 0.2, rng.f() * 1.4 - 0.2];
+            let (got, want) = (f.distance(p), brute(&tris, p));
+            assert!((got - want).abs() <= 1e-12 * (1.0 + want), "{got} vs {want}");
+        }
+        assert_eq!(
+            ClearanceField::from_triangles(Vec::new()).distance([0.0; 3]),
+            f64::INFINITY
+        );
+    }
+}
