@@ -30,6 +30,74 @@ fn isolated(cx: &CellComplex, part: &Partition, rooms: &[Vec<[f64; 3]>]) -> usiz
         .count()
 }
 
+fn rotate_789(p: [f64; 3]) -> [f64; 3] {
+    let (sx, cx) = 7f64.to_radians().sin_cos();
+    let (sy, cy) = 8f64.to_radians().sin_cos();
+    let (sz, cz) = 9f64.to_radians().sin_cos();
+    let [mut x, mut y, mut z] = p;
+    (y, z) = (cx * y - sx * z, sx * y + cx * z);
+    (x, z) = (cy * x + sy * z, -sy * x + cy * z);
+    [cz * x - sz * y, sz * x + cz * y, z]
+}
+
+/// (rooms isolated, final cells, final portal pairs) at the default stop.
+fn at_default_stop(name: &str, f: impl Fn([f64; 3]) -> [f64; 3]) -> (usize, usize, usize, usize, usize) {
+    let tm = portalfind::thesis_models::by_name(name).unwrap();
+    let verts: Vec<[f64; 3]> = tm.soup.vertices.iter().map(|&p| f(p)).collect();
+    let m = portalfind::model::from_soup(tm.name, verts, tm.soup.polygons.clone()).unwrap();
+    let (cx, _, _) = portalfind::experiment::build_cells(&m, Subdivision::Delaunay).unwrap();
+    let field = CellField::new(&m, &cx);
+    let mg = merge(&cx, &field, StopRule::Threshold(DEFAULT_RATIO));
+    let part = Decimation::replay(&cx, &mg.steps).unwrap();
+    let rooms: Vec<Vec<[f64; 3]>> = tm
+        .truth
+        .rooms
+        .iter()
+        .map(|r| r.samples.iter().map(|&p| f(p)).collect())
+        .collect();
+    (
+        isolated(&cx, &part, &rooms),
+        rooms.len(),
+        part.len(),
+        part.portals(&cx).len(),
+        tm.truth.doorways.len(),
+    )
+}
+
+/// The thesis models at the default stop, as shipped and after the 7°/8°/9° rotation with
+/// an offset of 1e6: every room isolated, one cell per room, one portal pair per doorway.
+/// (The caverns have 6 caves and 7 tunnels; the noisy model 4 rooms.)
+#[test]
+fn thesis_models_rooms_at_default_stop() {
+    let mut failures = Vec::new();
+    for name in [
+        "four_room_optimized",
+        "four_room_tessellated",
+        "four_room_distorted",
+        "noisy",
+        "caverns",
+    ] {
+        for (variant, moved) in [("as shipped", false), ("rotated 7/8/9 + 1e6", true)] {
+            let got = if moved {
+                at_default_stop(name, |p| {
+                    let q = rotate_789(p);
+                    [q[0] + 1e6, q[1] + 1e6, q[2] + 1e6]
+                })
+            } else {
+                at_default_stop(name, |p| p)
+            };
+            let (iso, rooms, cells, portals, doorways) = got;
+            println!(
+                "{name:<24} {variant:<22} rooms {iso}/{rooms} cells {cells} portals {portals} (doorways {doorways})"
+            );
+            if iso != rooms || cells != rooms || portals != doorways {
+                failures.push(format!("{name} {variant}: {got:?}"));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
+}
+
 #[test]
 #[ignore = "exploration: prints a table"]
 fn thesis_models_table() {
