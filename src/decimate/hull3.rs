@@ -25,7 +25,7 @@ pub struct Hull3 {
     faces: Vec<[u32; 3]>,
 }
 
-use crate::geom::vec::{cross, dot, sub};
+use crate::base::vec::{cross, dot, sub};
 
 fn bits(p: &P3) -> [u64; 3] {
     [p[0].to_bits(), p[1].to_bits(), p[2].to_bits()]
