@@ -1,96 +1,48 @@
-//! Projected-area estimators and the per-cell state each keeps so that a collapse costs
-//! about the size of what changed.
-//!
-//! | estimator | measure of a cell projected on the portal plane | per-cell state | merge |
-//! |-----------|-----------------------------------------------|----------------|-------|
-//! | `bbox`  | area of the bounding rectangle, axis-aligned in the plane's canonical frame ([`Frame`]) — the thesis's "bounding rectangle" | 3D convex hull | insert the smaller hull's vertices into the larger: `O(k·h)` |
-//! | `hull`  | area of the 2D convex hull of the projected cell | 3D convex hull | as `bbox` |
-//! | `union` | exact area of the union of the projected convex pieces | boundary faces keyed by patch (below) | symmetric difference: `O(size of the absorbed cell's boundary)` |
-//!
-//! **Why the 3D hull suffices for `bbox` and `hull`.** Orthogonal projection is linear, so
-//! the projection of the convex hull of a point set is the convex hull of the projected
-//! points, and the extreme points in any in-plane direction are projections of 3D hull
-//! vertices. Both measures therefore depend only on the cell's 3D hull vertex set, and the
-//! hull of a union is the hull of the two hulls' vertices. A merged room keeps tens to a
-//! few hundred hull vertices however many pieces it absorbed; when the absorbed cell lies
-//! inside the survivor's hull, nothing changes (exactly: the insertion is decided by exact
-//! [`orient3d`](crate::predicates::orient3d)) and the survivor's other pairs keep their
-//! weights without being re-weighed.
-//!
-//! **Boundary faces for `union`.** The projection of a cell is the union of its pieces'
-//! projections, which is the projection of the solid they fill: the union of the
-//! projections of its *front* boundary faces (see [`Boundary`]). The state is the set of
-//! boundary faces keyed by patch; a merge is a symmetric difference (cost: the absorbed
-//! cell's boundary). On an unchanged plane the survivor's area grows incrementally: the
-//! stored area plus what the absorbed cell's front faces add to the survivor's front
-//! faces they overlap ([`union_area_delta`]). On a new plane (a pair whose portal set
-//! changed) the whole front is unioned ([`union_area`]): an exact area on a new direction
-//! depends on the cell's whole silhouette, so no state kept for other directions can make
-//! that cheaper than the silhouette's size. Front faces overlap only where the solid has
-//! several layers along the direction — not as deep as its pieces pile up, which made a
-//! union over pieces quadratic in a merged room's size (e1m1 at `cells:60`: 807 s with
-//! convex blocks of pieces, 384 s with boundary faces; `hull` takes under a second).
+//! `union`: the exact area of the union of the projected convex pieces, from each cell's
+//! boundary faces keyed by patch (see [`Boundary`]); merged by symmetric difference.
 
-use super::hull3::Hull3;
-use super::project::{Frame, P2, bbox_area, bbox2, hull2, polygon_area, union_area, union_area_delta};
-use crate::geom::vec::dot;
+use super::AreaEstimator;
+use crate::base::vec::{P3, dot};
+use crate::decimate::project::{Frame, P2, bbox2, hull2, union_area, union_area_delta};
 use crate::geom::{ConvexPolygon, ConvexPolyhedron};
-use crate::predicates::P3;
-use serde::{Deserialize, Serialize};
-use std::fmt;
-use std::str::FromStr;
+use crate::ids::PatchId;
 
-/// How the projected area of a (merged, non-convex) cell on a portal plane is measured.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Estimator {
-    /// Axis-aligned bounding rectangle in the plane's canonical frame (thesis 4.4).
-    Bbox,
-    /// 2D convex hull of the projected vertices.
-    Hull,
-    /// Exact union of the projected convex pieces.
-    Union,
-}
+/// Exact union of the projected convex pieces.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Union;
 
-impl Estimator {
-    /// All estimators, in a fixed order.
-    pub const ALL: [Estimator; 3] = [Estimator::Bbox, Estimator::Hull, Estimator::Union];
+impl AreaEstimator for Union {
+    const NAME: &'static str = "union";
+    type State = Boundary;
 
-    /// The name used on the command line.
-    pub fn name(self) -> &'static str {
-        match self {
-            Estimator::Bbox => "bbox",
-            Estimator::Hull => "hull",
-            Estimator::Union => "union",
-        }
+    fn piece(poly: &ConvexPolyhedron) -> Boundary {
+        Boundary::of(poly)
     }
-}
 
-impl fmt::Display for Estimator {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
+    fn size(state: &Boundary) -> usize {
+        state.faces.len()
     }
-}
 
-impl FromStr for Estimator {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "bbox" => Ok(Estimator::Bbox),
-            "hull" => Ok(Estimator::Hull),
-            "union" => Ok(Estimator::Union),
-            _ => Err(format!("unknown estimator {s:?}; use bbox, hull or union")),
-        }
+    /// The merge is remembered until the next one, so that
+    /// [`Union::projected_area_grown`] integrates only what the absorbed cell adds.
+    fn absorb(state: &mut Boundary, other: Boundary) -> bool {
+        state.absorb(other);
+        true
     }
-}
 
-/// What an estimator keeps per cell.
-#[derive(Clone, Debug)]
-pub(crate) enum Shape {
-    /// For `bbox` and `hull`.
-    Hull(Hull3),
-    /// For `union`: the cell's boundary faces, keyed by patch (see [`Boundary`]).
-    Boundary(Boundary),
+    fn projected_area(state: &Boundary, frame: &Frame) -> f64 {
+        state.projected_area(frame)
+    }
+
+    /// Incremental: [`Boundary::projected_area_grown`].
+    fn projected_area_grown(state: &Boundary, frame: &Frame, before: f64) -> f64 {
+        state.projected_area_grown(frame, before)
+    }
+
+    fn projected_area_direct(pieces: &[&ConvexPolyhedron], frame: &Frame) -> f64 {
+        let proj = |p: &ConvexPolyhedron| -> Vec<P2> { p.vertices().iter().map(|v| frame.project(v)).collect() };
+        union_area(&pieces.iter().map(|p| hull2(proj(p))).collect::<Vec<_>>())
+    }
 }
 
 /// The boundary of a merged cell: the faces of its pieces that no other piece of the cell
@@ -109,17 +61,17 @@ pub(crate) enum Shape {
 /// **Merging** is a symmetric difference by patch id: a patch shared by the two cells
 /// becomes interior and leaves both; the rest is kept. That costs the smaller boundary.
 #[derive(Clone, Debug, Default)]
-pub(crate) struct Boundary {
-    faces: std::collections::HashMap<u32, Face>,
+pub struct Boundary {
+    faces: std::collections::HashMap<PatchId, Face>,
     /// Stamp of the last [`Boundary::absorb`]: the faces that came from the absorbed cell
     /// carry it, and every older face a smaller one.
     stamp: u32,
     /// The shared faces of the last merge, as the survivor and as the absorbed cell had them.
-    shared_own: Vec<(u32, Face)>,
-    shared_absorbed: Vec<(u32, Face)>,
+    shared_own: Vec<(PatchId, Face)>,
+    shared_absorbed: Vec<(PatchId, Face)>,
     /// Keys of the absorbed cell's faces that the last merge kept (sorted), so that an
     /// incremental evaluation finds them without scanning the whole boundary.
-    absorbed: Vec<u32>,
+    absorbed: Vec<PatchId>,
 }
 
 /// One boundary face with what the per-evaluation filters need, computed once.
@@ -161,7 +113,7 @@ impl Face {
 
     /// The projection if the face faces along the frame's direction (its outward area
     /// vector has a positive component along it). Faces seen edge-on project to slivers,
-    /// which [`union_area`] drops by its width test.
+    /// which [`union_area`](super::super::project::union_area) drops by its width test.
     fn front(&self, frame: &Frame) -> Option<Vec<P2>> {
         (dot(&self.area, &frame.n) > 0.0).then(|| hull2(self.poly.verts.iter().map(|p| frame.project(p)).collect()))
     }
@@ -187,6 +139,7 @@ impl Boundary {
                 .tags
                 .iter()
                 .copied()
+                .map(PatchId)
                 .zip(poly.faces.iter().cloned().map(Face::new))
                 .collect(),
             ..Default::default()
@@ -221,7 +174,7 @@ impl Boundary {
     fn projected_area(&self, frame: &Frame) -> f64 {
         // Faces in patch order, so that the tie rules of `union_area` (which follow input
         // order) do not depend on the hash map's iteration order.
-        let mut front: Vec<(u32, Vec<P2>)> = self
+        let mut front: Vec<(PatchId, Vec<P2>)> = self
             .faces
             .iter()
             .filter_map(|(k, f)| f.front(frame).map(|p| (*k, p)))
@@ -233,7 +186,7 @@ impl Boundary {
 
     /// The projected area after the last [`Boundary::absorb`] (`S ← S ∪ R`), given `S`'s
     /// projected area `before` on the same plane: `before` plus what `R`'s front faces add
-    /// to the front faces of `S` that they overlap ([`union_area_delta`]). Exact because
+    /// to the front faces of `S` that they overlap ([`union_area_delta`](super::super::project::union_area_delta)). Exact because
     /// `proj(S ∪ R) = proj(S) ∪ proj(R)`; local because only `S`'s faces whose bounding
     /// spheres project into `R`'s projected box take part (selecting them is one scan of
     /// two dot products per face; the union work is the size of what changed).
@@ -241,7 +194,7 @@ impl Boundary {
         if self.stamp == 0 {
             return self.projected_area(frame);
         }
-        let mut absorbed: Vec<(u32, &Face)> = self
+        let mut absorbed: Vec<(PatchId, &Face)> = self
             .absorbed
             .iter()
             .map(|k| (*k, &self.faces[k]))
@@ -253,7 +206,7 @@ impl Boundary {
             return before;
         }
         let (lo, hi) = bbox2(v.iter().flatten());
-        let mut own: Vec<(u32, Vec<P2>)> = self
+        let mut own: Vec<(PatchId, Vec<P2>)> = self
             .faces
             .iter()
             .filter(|(_, f)| f.stamp != self.stamp)
@@ -265,74 +218,5 @@ impl Boundary {
         let u: Vec<Vec<P2>> = own.into_iter().map(|e| e.1).collect();
         let d = union_area_delta(&u, &v);
         before + if d.is_finite() { d.max(0.0) } else { 0.0 }
-    }
-}
-
-impl Shape {
-    /// The state of one convex piece (a cell of the complex, faces tagged by patch).
-    pub fn piece(est: Estimator, poly: &ConvexPolyhedron) -> Self {
-        match est {
-            Estimator::Bbox | Estimator::Hull => Shape::Hull(Hull3::new(&poly.vertices())),
-            Estimator::Union => Shape::Boundary(Boundary::of(poly)),
-        }
-    }
-
-    /// Size of the state: hull vertices, or boundary faces for `union`.
-    pub fn size(&self) -> usize {
-        match self {
-            Shape::Hull(h) => h.pts.len(),
-            Shape::Boundary(b) => b.faces.len(),
-        }
-    }
-
-    /// Merges `other` into `self` (the cell that absorbs it); returns whether any
-    /// projected measure of `self` may have changed. `false` is exact: the state is then
-    /// untouched. For `union` the merge is remembered until the next one, so that
-    /// [`Shape::projected_area_grown`] can integrate only what the absorbed cell adds.
-    pub fn absorb(&mut self, other: Shape) -> bool {
-        match (self, other) {
-            (Shape::Hull(a), Shape::Hull(b)) => a.insert_all(&b),
-            (Shape::Boundary(a), Shape::Boundary(b)) => {
-                a.absorb(b);
-                true
-            }
-            _ => unreachable!("shapes of one run come from one estimator"),
-        }
-    }
-
-    /// The projected area after the last [`Shape::absorb`], given the area `before` it on
-    /// the same plane: incremental for `union` ([`Boundary::projected_area_grown`]), the
-    /// full (cheap) measure for `bbox` and `hull`.
-    pub fn projected_area_grown(&self, est: Estimator, frame: &Frame, before: f64) -> f64 {
-        let a = match self {
-            Shape::Boundary(b) => b.projected_area_grown(frame, before),
-            Shape::Hull(_) => return self.projected_area(est, frame),
-        };
-        if a.is_finite() { a.max(0.0) } else { 0.0 }
-    }
-
-    /// Projected area on the plane of `frame`.
-    pub fn projected_area(&self, est: Estimator, frame: &Frame) -> f64 {
-        let proj = |pts: &[P3]| -> Vec<P2> { pts.iter().map(|p| frame.project(p)).collect() };
-        let a = match (est, self) {
-            (Estimator::Bbox, Shape::Hull(h)) => bbox_area(&proj(&h.pts)),
-            (Estimator::Hull, Shape::Hull(h)) => polygon_area(&hull2(proj(&h.pts))),
-            (Estimator::Union, Shape::Boundary(b)) => b.projected_area(frame),
-            _ => unreachable!("shape does not match estimator"),
-        };
-        if a.is_finite() { a.max(0.0) } else { 0.0 }
-    }
-}
-
-/// The projected area of a cell given by its convex pieces, computed from scratch (no
-/// hulls or boundary faces kept): the reference the incremental states are tested against.
-/// `bbox` and `hull` use all piece vertices; `union` the union of the pieces' projections.
-pub fn projected_area_direct(est: Estimator, pieces: &[&crate::geom::ConvexPolyhedron], frame: &Frame) -> f64 {
-    let proj =
-        |p: &crate::geom::ConvexPolyhedron| -> Vec<P2> { p.vertices().iter().map(|v| frame.project(v)).collect() };
-    match est {
-        Estimator::Bbox => bbox_area(&pieces.iter().flat_map(|p| proj(p)).collect::<Vec<_>>()),
-        Estimator::Hull => polygon_area(&hull2(pieces.iter().flat_map(|p| proj(p)).collect())),
-        Estimator::Union => union_area(&pieces.iter().map(|p| hull2(proj(p))).collect::<Vec<_>>()),
     }
 }
