@@ -452,7 +452,7 @@ fn edge_integral(a: &P2, b: &P2, c: &P2, keep: Option<&[(f64, f64)]>, drop: &[(f
 /// inside on both sides of their line) are ignored; a sliver's own area is below
 /// `2 · tolerance · diameter`.
 ///
-/// Polygons inside one of the largest others are dropped first ([`Prepared::pruned`]).
+/// Polygons inside one of the largest others are dropped first (`Prepared::pruned`).
 /// Cost: `O(Σ_P |P| · Σ_{Q meets P} |Q|)` over the remaining polygons — quadratic in the
 /// number of mutually overlapping polygons, linear when few overlap.
 pub fn union_area(polys: &[Vec<P2>]) -> f64 {

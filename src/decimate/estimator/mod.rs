@@ -19,7 +19,7 @@
 //!
 //! **Boundary faces for `union`.** The projection of a cell is the union of its pieces'
 //! projections, which is the projection of the solid they fill: the union of the
-//! projections of its *front* boundary faces (see [`union::Boundary`](Boundary)). The state is the set of
+//! projections of its *front* boundary faces (see [`Boundary`]). The state is the set of
 //! boundary faces keyed by patch; a merge is a symmetric difference (cost: the absorbed
 //! cell's boundary). On an unchanged plane the survivor's area grows incrementally: the
 //! stored area plus what the absorbed cell's front faces add to the survivor's front

@@ -34,7 +34,7 @@ impl AreaEstimator for Union {
         state.projected_area(frame)
     }
 
-    /// Incremental: [`Boundary::projected_area_grown`].
+    /// Incremental: what the absorbed cell's front faces add to the survivor's.
     fn projected_area_grown(state: &Boundary, frame: &Frame, before: f64) -> f64 {
         state.projected_area_grown(frame, before)
     }
