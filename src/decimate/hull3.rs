@@ -272,7 +272,9 @@ mod tests {
     #[test]
     fn merge_reports_change_exactly() {
         let mut r = SplitMix64(11);
-        let a: Vec<P3> = (0..300).map(|_| [r.unit() * 4.0, r.unit() * 4.0, r.unit() * 3.0]).collect();
+        let a: Vec<P3> = (0..300)
+            .map(|_| [r.unit() * 4.0, r.unit() * 4.0, r.unit() * 3.0])
+            .collect();
         let mut h = Hull3::new(&a);
         let before = h.pts.clone();
         let inside = Hull3::new(&[[1.0, 1.0, 1.0], [2.0, 1.0, 1.0], [1.0, 2.0, 1.0], [1.0, 1.0, 2.0]]);
