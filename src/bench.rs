@@ -10,30 +10,18 @@
 //!
 //! Each case runs in a child process so its peak memory (`VmHWM`) is its own.
 
-use crate::delaunay::{SplitMix64, Tetrahedralization};
+use crate::base::rng::SplitMix64;
+use crate::delaunay::Tetrahedralization;
 use crate::predicates::P3;
 use std::time::Instant;
 
 /// The input kinds.
 pub const KINDS: [&str; 4] = ["uniform", "grid", "boxes", "urot"];
 
-/// Rotation by 7°, 8°, 9° about x, y and z (in that order), as used throughout the tests.
-pub fn rotate_789(p: P3) -> P3 {
-    let (sx, cx) = 7f64.to_radians().sin_cos();
-    let (sy, cy) = 8f64.to_radians().sin_cos();
-    let (sz, cz) = 9f64.to_radians().sin_cos();
-    let [x, y, z] = p;
-    let (y, z) = (cx * y - sx * z, sx * y + cx * z);
-    let (x, z) = (cy * x + sy * z, -sy * x + cy * z);
-    (cz * x - sz * y, sz * x + cz * y, z).into()
-}
-
-/// The stress transform used throughout the tests and benchmarks: [`rotate_789`], then a
-/// shift by 1e6 on every axis (a georeferenced copy far from the origin).
-pub fn rotate_789_offset(p: P3) -> P3 {
-    let r = rotate_789(p);
-    [r[0] + 1e6, r[1] + 1e6, r[2] + 1e6]
-}
+/// The stress rotation and transform, re-exported from their one definition in
+/// [`crate::base::rigid`] (the `caverns_rotated` model's description names
+/// `bench::rotate_789`).
+pub use crate::base::rigid::{rotate_789, rotate_789_offset};
 
 /// The seed of every benchmark input.
 pub const SEED: u64 = 12345;
@@ -41,7 +29,7 @@ pub const SEED: u64 = 12345;
 /// Generates about `n` points of the given kind with a fixed seed.
 pub fn generate(kind: &str, n: usize, seed: u64) -> Option<Vec<P3>> {
     let mut rng = SplitMix64(seed);
-    let mut unit = move || (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
+    let mut unit = move || rng.unit();
     Some(match kind {
         "uniform" => (0..n).map(|_| [unit(), unit(), unit()]).collect(),
         "urot" => (0..n).map(|_| rotate_789_offset([unit(), unit(), unit()])).collect(),

@@ -42,6 +42,8 @@ id_type!(
     CellId
 );
 id_type!(
-    /// A portal between two cells.
-    PortalId
+    /// A patch of the cell complex: a face shared by two cells (or a cell and the
+    /// outside), the tag of the cells' polyhedron faces. (`complex` still defines its own
+    /// `PatchId`, equal to this one; it moves here when `complex` re-exports this.)
+    PatchId
 );

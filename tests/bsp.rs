@@ -7,9 +7,9 @@ use portalfind::bsp::{self, BspSettings, BspStats};
 use portalfind::complex::{CellComplex, HULL};
 use portalfind::decimate::{Decimation, Estimator, HeuristicKind, Partition, QueueMode, Settings, StopRule};
 use portalfind::delaunay::Tetrahedralization;
+use portalfind::generate::scenes::{self, Soup};
+use portalfind::generate::thesis as thesis_models;
 use portalfind::model::{Model, from_soup, load_model};
-use portalfind::scenes::{self, Soup};
-use portalfind::thesis_models;
 
 fn model(name: &str, s: &Soup) -> Model {
     from_soup(name, s.vertices.clone(), s.polygons.clone()).expect("model")

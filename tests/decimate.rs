@@ -5,11 +5,11 @@
 use portalfind::complex::CellComplex;
 use portalfind::decimate::estimator::projected_area_direct;
 use portalfind::decimate::project::Frame;
-use portalfind::decimate::testscenes::{self, four_rooms, room_samples};
 use portalfind::decimate::*;
 use portalfind::delaunay::Tetrahedralization;
+use portalfind::generate::four_rooms::{self as testscenes, four_rooms, room_samples};
+use portalfind::generate::scenes::{self, Soup};
 use portalfind::model::{from_soup, load_model};
-use portalfind::scenes::{self, Soup};
 
 fn build(s: &Soup) -> CellComplex {
     let m = from_soup("test", s.vertices.clone(), s.polygons.clone()).expect("model");
@@ -18,7 +18,7 @@ fn build(s: &Soup) -> CellComplex {
 }
 
 fn rotate(p: [f64; 3]) -> [f64; 3] {
-    let r = portalfind::bench::rotate_789(p);
+    let r = portalfind::base::rigid::rotate_789(p);
     [r[0] + 1000.0, r[1] - 2000.0, r[2] + 500.0]
 }
 

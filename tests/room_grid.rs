@@ -2,8 +2,8 @@
 
 use portalfind::complex::CellComplex;
 use portalfind::delaunay::Tetrahedralization;
+use portalfind::generate::scenes::room_grid;
 use portalfind::model::from_soup;
-use portalfind::scenes::room_grid;
 
 #[test]
 fn room_grid_is_one_sealed_region() {

@@ -29,7 +29,7 @@ fn e1m1_rotated_and_offset_keeps_every_vertex() {
     let pts: Vec<[f64; 3]> = m
         .vertices
         .iter()
-        .map(|&v| portalfind::bench::rotate_789_offset(v))
+        .map(|&v| portalfind::base::rigid::rotate_789_offset(v))
         .collect();
     let t = Tetrahedralization::build(&pts).unwrap();
     let r = t.validate().unwrap();

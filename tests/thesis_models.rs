@@ -7,8 +7,8 @@ use std::collections::HashMap;
 
 use portalfind::complex::CellComplex;
 use portalfind::delaunay::Tetrahedralization;
+use portalfind::generate::thesis::{self as thesis_models, GroundTruth, ThesisModel};
 use portalfind::model::{Model, from_soup};
-use portalfind::thesis_models::{self, GroundTruth, ThesisModel};
 
 /// Our counts: (name, vertices, triangles); the thesis's: (vertices, triangles).
 type Counts = (&'static str, usize, usize, Option<(usize, usize)>);
@@ -136,7 +136,7 @@ fn caverns_rotated() {
     let plain = thesis_models::caverns();
     assert_eq!(m.soup.polygons, plain.soup.polygons);
     for (a, b) in m.soup.vertices.iter().zip(&plain.soup.vertices) {
-        let r = portalfind::bench::rotate_789(*b);
+        let r = portalfind::base::rigid::rotate_789(*b);
         assert!((0..3).all(|k| (a[k] - r[k]).abs() < 1e-9));
     }
 }

@@ -84,6 +84,7 @@ use std::time::Instant;
 
 use serde::Serialize;
 
+use crate::base::vec::{dist, dot, weighted_mean};
 use crate::complex::{Cell, CellComplex, ComplexStats, HULL, Occluder, Patch, polygon_supports, project};
 use crate::geom::{Classification, ConvexPolygon, ConvexPolyhedron, Cut, Plane, PolygonSplit};
 use crate::ids::{CellId, PolygonId};
@@ -192,14 +193,6 @@ impl Frag {
             area,
         }
     }
-}
-
-fn dist(a: &P3, b: &P3) -> f64 {
-    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
-}
-
-fn dot(a: &P3, b: &P3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 /// Where a fragment lies relative to a plane, with tolerance `coplanar_abs`.
@@ -686,19 +679,7 @@ pub fn seal_thin_leaves(cx: &mut CellComplex) -> (usize, usize) {
 
 /// Area-weighted centroid of convex pieces (e.g. a merged portal's).
 pub fn pieces_centroid(pieces: &[ConvexPolygon]) -> P3 {
-    let (mut c, mut w) = ([0.0; 3], 0.0);
-    for p in pieces {
-        let (a, q) = (p.area(), p.centroid());
-        for k in 0..3 {
-            c[k] += a * q[k];
-        }
-        w += a;
-    }
-    if w > 0.0 {
-        c.map(|x| x / w)
-    } else {
-        pieces.first().map_or([f64::NAN; 3], |p| p.centroid())
-    }
+    weighted_mean(pieces.iter().map(|p| (p.area(), p.centroid())))
 }
 
 /// How many points of `a` match a point of `b` within distance `tol`, one-to-one: all

@@ -25,7 +25,7 @@ pub struct Hull3 {
     faces: Vec<[u32; 3]>,
 }
 
-use crate::geom::vec::{cross, dot, sub};
+use crate::base::vec::{cross, dot, sub};
 
 fn bits(p: &P3) -> [u64; 3] {
     [p[0].to_bits(), p[1].to_bits(), p[2].to_bits()]
@@ -244,17 +244,7 @@ fn initial_simplex(pts: &[P3]) -> Option<[usize; 4]> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    struct Rng(u64);
-    impl Rng {
-        fn f(&mut self) -> f64 {
-            self.0 = self
-                .0
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (self.0 >> 11) as f64 / (1u64 << 53) as f64
-        }
-    }
+    use crate::base::rng::SplitMix64;
 
     #[test]
     fn cube_with_inner_points_keeps_eight_corners() {
@@ -262,9 +252,9 @@ mod tests {
         for i in 0..8 {
             pts.push([(i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64]);
         }
-        let mut r = Rng(7);
+        let mut r = SplitMix64(7);
         for _ in 0..200 {
-            pts.push([r.f(), r.f(), r.f()]);
+            pts.push([r.unit(), r.unit(), r.unit()]);
         }
         // Points on faces and edges (coplanar/collinear with the hull).
         pts.push([0.5, 0.5, 0.0]);
@@ -281,8 +271,10 @@ mod tests {
 
     #[test]
     fn merge_reports_change_exactly() {
-        let mut r = Rng(11);
-        let a: Vec<P3> = (0..300).map(|_| [r.f() * 4.0, r.f() * 4.0, r.f() * 3.0]).collect();
+        let mut r = SplitMix64(11);
+        let a: Vec<P3> = (0..300)
+            .map(|_| [r.unit() * 4.0, r.unit() * 4.0, r.unit() * 3.0])
+            .collect();
         let mut h = Hull3::new(&a);
         let before = h.pts.clone();
         let inside = Hull3::new(&[[1.0, 1.0, 1.0], [2.0, 1.0, 1.0], [1.0, 2.0, 1.0], [1.0, 1.0, 2.0]]);

@@ -61,19 +61,25 @@
 pub mod estimator;
 pub mod heuristic;
 mod hull3;
+mod parse;
 pub mod project;
 pub mod queue;
-pub mod testscenes;
 
-pub use estimator::Estimator;
+// compat re-export, removed after merge
+#[doc(hidden)]
+pub use crate::generate::four_rooms as testscenes;
+
+pub use estimator::{AreaEstimator, Estimator};
 pub use heuristic::{Heuristic, HeuristicKind, PairContext};
+pub use parse::{StopRuleError, UnknownName};
 pub use queue::{QueueMode, QueueStats};
 
+use crate::base::vec::norm;
 use crate::complex::CellComplex;
 use crate::geom::{ConvexPolygon, min_volume};
 use crate::ids::CellId;
 use crate::predicates::P3;
-use estimator::Shape;
+use estimator::WithEstimator;
 use project::Frame;
 use queue::{DetMap, Key, Queue};
 use serde::{Deserialize, Serialize};
@@ -107,10 +113,10 @@ impl fmt::Display for StopRule {
     }
 }
 
-impl FromStr for StopRule {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        let bad = || format!("bad stop rule {s:?}; use threshold:W, cells:N or none");
+impl StopRule {
+    /// Parses `threshold:W`, `cells:N` or `none`.
+    pub fn parse(s: &str) -> Result<Self, StopRuleError> {
+        let bad = || StopRuleError::Syntax(s.to_string());
         if s == "none" {
             return Ok(StopRule::None);
         }
@@ -121,27 +127,28 @@ impl FromStr for StopRule {
                 // Collapse weights are positive and finite: at W <= 0 the first pair would
                 // already be at or above the threshold, and W = inf would never be reached.
                 if !(w.is_finite() && w > 0.0) {
-                    return Err(format!(
-                        "bad stop rule {s:?}: W must be a finite number > 0; collapse weights are \
-                         positive and finite, so this threshold would stop before the first \
-                         collapse (or never; use `none` to run to the end)"
-                    ));
+                    return Err(StopRuleError::Threshold(s.to_string()));
                 }
                 Ok(StopRule::Threshold(w))
             }
             "cells" => {
                 let n: usize = v.parse().map_err(|_| bad())?;
                 if n == 0 {
-                    return Err(format!(
-                        "bad stop rule {s:?}: N must be at least 1 (a decimation always leaves at \
-                         least one cell, so cells:0 would run until no pair is left; use `none` \
-                         for that)"
-                    ));
+                    return Err(StopRuleError::Cells(s.to_string()));
                 }
                 Ok(StopRule::Cells(n))
             }
             _ => Err(bad()),
         }
+    }
+}
+
+impl FromStr for StopRule {
+    // `String` until `experiment::Definition::parse` takes the typed error (it passes this
+    // one on as a `String`); then `StopRuleError`.
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        StopRule::parse(s).map_err(|e| e.to_string())
     }
 }
 
@@ -371,10 +378,6 @@ fn portal_vectors(pieces: &[ConvexPolygon]) -> (P3, (f64, P3, P3)) {
     (av, largest)
 }
 
-fn norm(v: &P3) -> f64 {
-    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
-}
-
 /// The portal-plane normal: normalized area-vector sum, or the fallback (see module docs).
 fn mean_normal(av: &P3, area: f64, fallback: &P3) -> P3 {
     let l = norm(av);
@@ -423,11 +426,11 @@ pub struct Decimation {
     pub partition: Partition,
 }
 
-struct Live {
+struct Live<E: AreaEstimator> {
     name: CellId,
     pieces: Vec<CellId>,
     volume: f64,
-    shape: Shape,
+    shape: E::State,
     nbrs: DetMap<u32, u32>,
 }
 
@@ -457,12 +460,18 @@ enum Side {
     Valid,
 }
 
-struct Engine<'a> {
+/// A projected area as the heuristics see it: finite and `>= 0`.
+fn clamp_area(a: f64) -> f64 {
+    if a.is_finite() { a.max(0.0) } else { 0.0 }
+}
+
+/// The decimation engine, monomorphised per estimator.
+struct Engine<'a, E: AreaEstimator> {
     cx: &'a CellComplex,
     settings: Settings,
     h: &'static dyn Heuristic,
     slot_of: Vec<u32>,
-    live: Vec<Option<Live>>,
+    live: Vec<Option<Live<E>>>,
     pairs: Vec<Pair>,
     queue: Queue,
     live_count: usize,
@@ -471,9 +480,9 @@ struct Engine<'a> {
     vol_floor: f64,
 }
 
-impl<'a> Engine<'a> {
+impl<'a, E: AreaEstimator> Engine<'a, E> {
     fn new(cx: &'a CellComplex, settings: Settings) -> Self {
-        let est = settings.estimator;
+        debug_assert_eq!(settings.estimator.name(), E::NAME);
         let mut slot_of = vec![u32::MAX; cx.cells.len()];
         let mut live = Vec::new();
         for (id, c) in cx.active_cells() {
@@ -482,7 +491,7 @@ impl<'a> Engine<'a> {
                 name: id,
                 pieces: vec![id],
                 volume: c.poly.volume(),
-                shape: Shape::piece(est, &c.poly),
+                shape: E::piece(&c.poly),
                 nbrs: DetMap::default(),
             }));
         }
@@ -549,7 +558,7 @@ impl<'a> Engine<'a> {
         }
     }
 
-    fn cell(&self, s: u32) -> &Live {
+    fn cell(&self, s: u32) -> &Live<E> {
         self.live[s as usize].as_ref().expect("live slot")
     }
 
@@ -574,10 +583,9 @@ impl<'a> Engine<'a> {
             .or_else(|| Frame::new([0.0, 0.0, 1.0], pr.largest.2))
             .expect("unit z frame");
         let (c0, c1) = (self.cell(pr.s[0]), self.cell(pr.s[1]));
-        let est = self.settings.estimator;
-        let side = |c: &Live, how: Side, before: f64| match how {
-            Side::Full => c.shape.projected_area(est, &frame),
-            Side::Grown => c.shape.projected_area_grown(est, &frame, before),
+        let side = |c: &Live<E>, how: Side, before: f64| match how {
+            Side::Full => clamp_area(E::projected_area(&c.shape, &frame)),
+            Side::Grown => clamp_area(E::projected_area_grown(&c.shape, &frame, before)),
             Side::Valid => before,
         };
         let projected = [side(c0, how[0], pr.projected[0]), side(c1, how[1], pr.projected[1])];
@@ -679,16 +687,14 @@ impl<'a> Engine<'a> {
             }
         }
         // Merge cells.
-        let changed = sc
-            .shape
-            .absorb(std::mem::replace(&mut rc.shape, Shape::Hull(Default::default())));
+        let changed = E::absorb(&mut sc.shape, rc.shape);
         for &c in &rc.pieces {
             self.slot_of[c.idx()] = s;
         }
         sc.pieces.extend(rc.pieces);
         sc.volume += rc.volume;
         sc.name = sc.name.min(rc.name);
-        self.stats.max_shape_vertices = self.stats.max_shape_vertices.max(sc.shape.size());
+        self.stats.max_shape_vertices = self.stats.max_shape_vertices.max(E::size(&sc.shape));
         let all: Vec<u32> = {
             let mut v: Vec<u32> = sc.nbrs.values().copied().collect();
             v.sort_unstable();
@@ -810,7 +816,22 @@ impl Decimation {
         settings: &Settings,
         progress: &mut dyn FnMut(usize, usize),
     ) -> Decimation {
-        Engine::new(cx, *settings).run(progress)
+        struct Run<'c, 'p> {
+            cx: &'c CellComplex,
+            settings: Settings,
+            progress: &'p mut dyn FnMut(usize, usize),
+        }
+        impl WithEstimator for Run<'_, '_> {
+            type Output = Decimation;
+            fn call<E: AreaEstimator>(self) -> Decimation {
+                Engine::<E>::new(self.cx, self.settings).run(self.progress)
+            }
+        }
+        settings.estimator.with(Run {
+            cx,
+            settings: *settings,
+            progress,
+        })
     }
 
     /// The partition after the first `steps.len()` collapses of a run, rebuilt by merging

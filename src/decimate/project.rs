@@ -25,10 +25,7 @@ pub struct Frame {
     pub o: P3,
 }
 
-use crate::geom::vec::{cross, dot, sub};
-fn norm(a: &P3) -> f64 {
-    dot(a, a).sqrt()
-}
+use crate::base::vec::{cross, dot, norm, sub};
 
 impl Frame {
     /// The canonical frame for a (non-zero) normal direction: `n` is normalized and its sign
@@ -455,7 +452,7 @@ fn edge_integral(a: &P2, b: &P2, c: &P2, keep: Option<&[(f64, f64)]>, drop: &[(f
 /// inside on both sides of their line) are ignored; a sliver's own area is below
 /// `2 · tolerance · diameter`.
 ///
-/// Polygons inside one of the largest others are dropped first ([`Prepared::pruned`]).
+/// Polygons inside one of the largest others are dropped first (`Prepared::pruned`).
 /// Cost: `O(Σ_P |P| · Σ_{Q meets P} |Q|)` over the remaining polygons — quadratic in the
 /// number of mutually overlapping polygons, linear when few overlap.
 pub fn union_area(polys: &[Vec<P2>]) -> f64 {
@@ -585,7 +582,7 @@ mod tests {
         // 300 random convex polygons (triangles and boxes, many overlapping and some
         // sharing edges exactly): the grid only filters candidates, so the merged
         // intervals and hence the areas must agree to the last bit.
-        let mut rng = crate::delaunay::SplitMix64(99);
+        let mut rng = crate::base::rng::SplitMix64(99);
         let mut unit = || (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
         let mut polys: Vec<Vec<P2>> = Vec::new();
         for k in 0..300 {
@@ -650,7 +647,7 @@ mod tests {
     /// (~1e-12) area, so the union must not move by more than that.
     #[test]
     fn slivers_do_not_change_unions_of_random_triangles() {
-        let mut rng = crate::delaunay::SplitMix64(7);
+        let mut rng = crate::base::rng::SplitMix64(7);
         let mut unit = || (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
         for _ in 0..50 {
             let mut clean: Vec<Vec<P2>> = Vec::new();

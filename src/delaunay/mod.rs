@@ -25,9 +25,10 @@
 mod sort;
 mod validate;
 
-pub use sort::SplitMix64;
 pub use validate::{ValidationError, ValidationReport};
 
+use crate::base::rng::SplitMix64;
+use crate::base::vec::sub;
 use crate::ids::{TetId, VertexId};
 use crate::predicates::{
     LatticePoints, P3, in_filter_range, insphere, insphere_in_range, orient3d, orient3d_in_range, sos_tie,
@@ -370,11 +371,6 @@ fn prefetch<T>(x: &T) {
     }
     #[cfg(not(target_arch = "x86_64"))]
     let _ = x;
-}
-
-#[inline]
-fn sub(a: &P3, b: &P3) -> P3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
 impl<'a> Builder<'a> {

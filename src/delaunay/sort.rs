@@ -4,6 +4,7 @@
 //! from the previous insertion is short, while the random rounds keep the expected cost of
 //! randomized incremental construction.
 
+use crate::base::rng::SplitMix64;
 use crate::predicates::P3;
 
 /// Bits per axis of the Hilbert key: 16 levels of the curve (65536³ cells) order
@@ -47,27 +48,6 @@ fn spread3(v: u32) -> u64 {
     x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
     x = (x | x << 2) & 0x1249_2492_4924_9249;
     x
-}
-
-/// A small, fast, seedable generator (SplitMix64) so insertion order is reproducible.
-#[derive(Clone, Debug)]
-pub struct SplitMix64(pub u64);
-
-impl SplitMix64 {
-    /// Next 64 random bits.
-    #[inline]
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in `0..n` (n > 0).
-    #[inline]
-    pub fn below(&mut self, n: usize) -> usize {
-        (((self.next_u64() >> 11) as u128 * n as u128) >> 53) as usize
-    }
 }
 
 /// Bits of the sort key: the round (3 bits) above the 48-bit Hilbert key.

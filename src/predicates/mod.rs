@@ -563,9 +563,9 @@ mod tests {
     fn filters_and_lattice_agree_with_robust() {
         // Random small-lattice points (many ties) and random reals: every path must give
         // robust's exact sign.
-        let mut r = crate::delaunay::SplitMix64(9);
+        let mut r = crate::base::rng::SplitMix64(9);
         for round in 0..20_000 {
-            let pt = |r: &mut crate::delaunay::SplitMix64| -> P3 {
+            let pt = |r: &mut crate::base::rng::SplitMix64| -> P3 {
                 if round % 2 == 0 {
                     [0; 3].map(|_| (r.below(5) as f64) * 0.5)
                 } else {
@@ -584,7 +584,7 @@ mod tests {
 
     #[test]
     fn lattice_kernel_agrees_with_float_kernel() {
-        let mut r = crate::delaunay::SplitMix64(5);
+        let mut r = crate::base::rng::SplitMix64(5);
         for scale in [1.0, 0.5, 100.0] {
             let pts: Vec<P3> = (0..200).map(|_| [0; 3].map(|_| r.below(6) as f64 * scale)).collect();
             let lat = LatticePoints::detect(&pts).expect("lattice");
@@ -607,7 +607,7 @@ mod tests {
         // Scaling every coordinate by 2^k is exact and multiplies the determinants by a
         // positive power of two, so the signs must not change, even where the products
         // underflow (2^-1060: subnormal coordinates) or would overflow (2^900).
-        let mut r = crate::delaunay::SplitMix64(21);
+        let mut r = crate::base::rng::SplitMix64(21);
         for _ in 0..3000 {
             let q = [0; 5].map(|_| [0; 3].map(|_| r.below(7) as f64));
             let want_o = orient3d(&q[0], &q[1], &q[2], &q[3]);

@@ -292,7 +292,7 @@ mod tests {
 
     #[test]
     fn arithmetic_matches_i128_where_it_fits() {
-        let mut r = crate::delaunay::SplitMix64(3);
+        let mut r = crate::base::rng::SplitMix64(3);
         for _ in 0..20_000 {
             let x = (r.next_u64() as i64 >> (r.below(60) as u32)) as i128;
             let y = (r.next_u64() as i64 >> (r.below(60) as u32)) as i128;
@@ -314,12 +314,12 @@ mod tests {
     #[test]
     fn decimal_ties_are_exact_zeros_and_signs_agree_with_robust() {
         // Box corners in decimal steps: cospherical and coplanar quintuples everywhere.
-        let mut r = crate::delaunay::SplitMix64(11);
+        let mut r = crate::base::rng::SplitMix64(11);
         let mut zeros = 0;
         for _ in 0..20_000 {
             let base = [0; 3].map(|_| r.below(5000) as f64 * 0.1);
             let size = [0; 3].map(|_| 0.1 * (1 + r.below(60)) as f64);
-            let corner = |r: &mut crate::delaunay::SplitMix64| {
+            let corner = |r: &mut crate::base::rng::SplitMix64| {
                 let k = r.below(8);
                 [0, 1, 2].map(|a| base[a] + if k >> a & 1 == 1 { size[a] } else { 0.0 })
             };

@@ -7,6 +7,7 @@
 //! nearest triangle found so far, so it is exact (up to floating-point rounding of the
 //! point–triangle distance, Ericson 2005, 5.1.5) and typically logarithmic.
 
+use crate::base::vec::{dot, sub};
 use crate::model::Model;
 
 /// Triangles per leaf.
@@ -31,12 +32,6 @@ pub struct ClearanceField {
     nodes: Vec<Node>,
 }
 
-fn sub(a: P3, b: P3) -> P3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn dot(a: P3, b: P3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
 fn add_scaled(a: P3, b: P3, s: f64) -> P3 {
     [a[0] + b[0] * s, a[1] + b[1] * s, a[2] + b[2] * s]
 }
@@ -54,17 +49,17 @@ fn box_dist2(p: P3, lo: P3, hi: P3) -> f64 {
 /// The point of triangle `t` closest to `p` (Ericson, Real-Time Collision Detection, 5.1.5).
 fn closest_on_triangle(p: P3, t: &[P3; 3]) -> P3 {
     let [a, b, c] = *t;
-    let ab = sub(b, a);
-    let ac = sub(c, a);
-    let ap = sub(p, a);
-    let d1 = dot(ab, ap);
-    let d2 = dot(ac, ap);
+    let ab = sub(&b, &a);
+    let ac = sub(&c, &a);
+    let ap = sub(&p, &a);
+    let d1 = dot(&ab, &ap);
+    let d2 = dot(&ac, &ap);
     if d1 <= 0.0 && d2 <= 0.0 {
         return a;
     }
-    let bp = sub(p, b);
-    let d3 = dot(ab, bp);
-    let d4 = dot(ac, bp);
+    let bp = sub(&p, &b);
+    let d3 = dot(&ab, &bp);
+    let d4 = dot(&ac, &bp);
     if d3 >= 0.0 && d4 <= d3 {
         return b;
     }
@@ -73,9 +68,9 @@ fn closest_on_triangle(p: P3, t: &[P3; 3]) -> P3 {
         let v = d1 / (d1 - d3);
         return add_scaled(a, ab, v);
     }
-    let cp = sub(p, c);
-    let d5 = dot(ab, cp);
-    let d6 = dot(ac, cp);
+    let cp = sub(&p, &c);
+    let d5 = dot(&ab, &cp);
+    let d6 = dot(&ac, &cp);
     if d6 >= 0.0 && d5 <= d6 {
         return c;
     }
@@ -87,7 +82,7 @@ fn closest_on_triangle(p: P3, t: &[P3; 3]) -> P3 {
     let va = d3 * d6 - d5 * d4;
     if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
         let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-        return add_scaled(b, sub(c, b), w);
+        return add_scaled(b, sub(&c, &b), w);
     }
     let denom = 1.0 / (va + vb + vc);
     let v = vb * denom;
@@ -97,8 +92,8 @@ fn closest_on_triangle(p: P3, t: &[P3; 3]) -> P3 {
 
 fn tri_dist2(p: P3, t: &[P3; 3]) -> f64 {
     let q = closest_on_triangle(p, t);
-    let d = sub(p, q);
-    dot(d, d)
+    let d = sub(&p, &q);
+    dot(&d, &d)
 }
 
 impl ClearanceField {
@@ -214,7 +209,7 @@ fn centroid(t: &[P3; 3]) -> P3 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::delaunay::SplitMix64;
+    use crate::base::rng::SplitMix64;
 
     struct Rng(SplitMix64);
     impl Rng {
@@ -222,7 +217,7 @@ mod tests {
             Rng(SplitMix64(seed))
         }
         fn f(&mut self) -> f64 {
-            (self.0.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+            self.0.unit()
         }
     }
 

@@ -3,7 +3,7 @@
 //! Orientation follows the crate convention: a polygon's front (counter-clockwise side)
 //! faces free space, so room walls face inwards and a pillar's faces face outwards.
 
-use crate::predicates::P3;
+use crate::base::vec::P3;
 
 /// A polygon soup under construction.
 #[derive(Clone, Debug, Default)]

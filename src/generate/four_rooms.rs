@@ -1,7 +1,7 @@
 //! Scenes for decimation tests: four rooms in a 2 × 2 layout joined by door corridors
 //! (the thesis's test case of 4.3 is four rooms joined by small corridors).
 
-use crate::scenes::Soup;
+use super::scenes::Soup;
 
 /// Room size and layout of [`four_rooms`].
 pub const ROOM: f64 = 4.0;

@@ -2,8 +2,11 @@
 //! **lowest** weight is collapsed first (thesis 4.2.3), so a *good* portal — small compared
 //! to a cell it opens into — must weigh *high*.
 //!
-//! A new heuristic is a small type implementing [`Heuristic`] plus one line in
-//! [`HeuristicKind`]. All of them see the same [`PairContext`].
+//! A new heuristic is one new file in this folder with a unit type implementing
+//! [`Heuristic`], plus one line in the `heuristics!` list (which declares the module and
+//! adds the [`HeuristicKind`] variant). All of them see the same [`PairContext`]. The
+//! engine calls the heuristic through `&dyn Heuristic`, once per weight: that costs
+//! nothing next to the projected areas it needs.
 //!
 //! | name | weight | thesis | dimension |
 //! |------|--------|--------|-----------|
@@ -33,6 +36,7 @@
 //! finite numbers by a positive floor. [`sanitize`] enforces it anyway, and rounds weights
 //! to [`WEIGHT_BITS`] significant bits so that rounding noise cannot break ties.
 
+use super::UnknownName;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::str::FromStr;
@@ -70,67 +74,52 @@ pub trait Heuristic: Send + Sync {
     }
 }
 
-/// Thesis 4.1.4: largest projected cell area over portal area.
-pub struct Aspect;
-impl Heuristic for Aspect {
-    fn name(&self) -> &'static str {
-        "aspect"
-    }
-    fn weight(&self, ctx: &PairContext) -> f64 {
-        ctx.max_projected() / ctx.portal_area
-    }
+/// The registration list: variant (its lower-case name is the serde name and must equal
+/// the heuristic's [`Heuristic::name`]) => module :: type.
+macro_rules! heuristics {
+    ($($variant:ident => $module:ident :: $ty:ident,)*) => {
+        $(mod $module; pub use $module::$ty;)*
+
+        /// The built-in heuristics, by name.
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+        #[serde(rename_all = "lowercase")]
+        pub enum HeuristicKind {
+            $(#[doc = concat!("[`", stringify!($ty), "`].")] $variant,)*
+        }
+
+        impl HeuristicKind {
+            /// All built-in heuristics.
+            pub const ALL: [HeuristicKind; [$(stringify!($variant)),*].len()] = [$(HeuristicKind::$variant),*];
+
+            /// The implementation.
+            pub fn heuristic(self) -> &'static dyn Heuristic {
+                match self {
+                    $(HeuristicKind::$variant => &$ty,)*
+                }
+            }
+        }
+    };
 }
 
-/// Thesis 4.3.2: the aspect divided by the square root of the projected cell area.
-pub struct Refined;
-impl Heuristic for Refined {
-    fn name(&self) -> &'static str {
-        "refined"
-    }
-    fn weight(&self, ctx: &PairContext) -> f64 {
-        ctx.max_projected().sqrt() / ctx.portal_area
-    }
-}
-
-/// Thesis 4.3.3 (our reading): refined, times the cube root of the volume ratio.
-pub struct VolumeRatio;
-impl Heuristic for VolumeRatio {
-    fn name(&self) -> &'static str {
-        "volume"
-    }
-    fn weight(&self, ctx: &PairContext) -> f64 {
-        let [a, b] = ctx.volumes;
-        let ratio = if a.max(b) > 0.0 { a.min(b) / a.max(b) } else { 1.0 };
-        Refined.weight(ctx) * ratio.cbrt()
-    }
-    fn uses_volume(&self) -> bool {
-        true
-    }
-}
-
-/// The built-in heuristics, by name.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum HeuristicKind {
-    /// [`Aspect`].
-    Aspect,
-    /// [`Refined`].
-    Refined,
-    /// [`VolumeRatio`].
-    Volume,
+heuristics! {
+    Aspect => aspect::Aspect,
+    Refined => refined::Refined,
+    Volume => volume::VolumeRatio,
 }
 
 impl HeuristicKind {
-    /// All built-in heuristics.
-    pub const ALL: [HeuristicKind; 3] = [HeuristicKind::Aspect, HeuristicKind::Refined, HeuristicKind::Volume];
-
-    /// The implementation.
-    pub fn heuristic(self) -> &'static dyn Heuristic {
-        match self {
-            HeuristicKind::Aspect => &Aspect,
-            HeuristicKind::Refined => &Refined,
-            HeuristicKind::Volume => &VolumeRatio,
-        }
+    /// The heuristic of this name, or an error listing the valid names.
+    pub fn parse(s: &str) -> Result<Self, UnknownName> {
+        HeuristicKind::ALL
+            .into_iter()
+            .find(|h| h.heuristic().name() == s)
+            .ok_or_else(|| {
+                UnknownName::new(
+                    "heuristic",
+                    s,
+                    HeuristicKind::ALL.map(|h| h.heuristic().name()).to_vec(),
+                )
+            })
     }
 }
 
@@ -141,12 +130,11 @@ impl fmt::Display for HeuristicKind {
 }
 
 impl FromStr for HeuristicKind {
+    // `String` until `experiment::Definition::parse` takes the typed error (it passes this
+    // one on as a `String`); then `UnknownName`.
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
-        HeuristicKind::ALL
-            .into_iter()
-            .find(|h| h.heuristic().name() == s)
-            .ok_or_else(|| format!("unknown heuristic {s:?}; use aspect, refined or volume"))
+        HeuristicKind::parse(s).map_err(|e| e.to_string())
     }
 }
 
@@ -194,6 +182,13 @@ mod tests {
             assert_eq!(h.to_string().parse::<HeuristicKind>().unwrap(), h);
         }
         assert!("nope".parse::<HeuristicKind>().is_err());
+        assert_eq!(
+            HeuristicKind::parse("nope").unwrap_err().to_string(),
+            "unknown heuristic \"nope\"; use aspect, refined or volume"
+        );
+        for h in HeuristicKind::ALL {
+            assert_eq!(serde_json::to_string(&h).unwrap(), format!("\"{h}\""));
+        }
         assert_eq!(sanitize(f64::NAN), 0.0);
         assert!(sanitize(f64::INFINITY).is_finite());
         assert_eq!(sanitize(6.000000000000002), 6.0);

@@ -1,0 +1,15 @@
+//! `aspect`: thesis 4.1.4, the largest projected cell area over the portal area.
+
+use super::{Heuristic, PairContext};
+
+/// Thesis 4.1.4: largest projected cell area over portal area.
+pub struct Aspect;
+
+impl Heuristic for Aspect {
+    fn name(&self) -> &'static str {
+        "aspect"
+    }
+    fn weight(&self, ctx: &PairContext) -> f64 {
+        ctx.max_projected() / ctx.portal_area
+    }
+}

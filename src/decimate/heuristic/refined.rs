@@ -1,0 +1,16 @@
+//! `refined`: thesis 4.3.2, the aspect divided by the square root of the projected cell
+//! area.
+
+use super::{Heuristic, PairContext};
+
+/// Thesis 4.3.2: the aspect divided by the square root of the projected cell area.
+pub struct Refined;
+
+impl Heuristic for Refined {
+    fn name(&self) -> &'static str {
+        "refined"
+    }
+    fn weight(&self, ctx: &PairContext) -> f64 {
+        ctx.max_projected().sqrt() / ctx.portal_area
+    }
+}
