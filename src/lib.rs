@@ -22,7 +22,6 @@ pub mod ids;
 pub mod model;
 pub mod output;
 pub mod predicates;
-pub mod rooms;
 pub mod tolerances;
 
 // compat re-export, removed after merge

@@ -58,6 +58,7 @@
 //! step by step against the exact heap in the tests). Heap operations are a small part of
 //! the run anyway: the estimators dominate.
 
+pub mod clearance;
 pub mod estimator;
 pub mod heuristic;
 mod hull3;
@@ -70,7 +71,7 @@ pub mod queue;
 pub use crate::generate::four_rooms as testscenes;
 
 pub use estimator::{AreaEstimator, Estimator};
-pub use heuristic::{Heuristic, HeuristicKind, PairContext};
+pub use heuristic::{Engine as HeuristicEngine, Heuristic, HeuristicKind, PairContext};
 pub use parse::{StopRuleError, UnknownName};
 pub use queue::{QueueMode, QueueStats};
 
@@ -594,6 +595,8 @@ impl<'a, E: AreaEstimator> Engine<'a, E> {
             projected,
             volumes: [c0.volume.max(self.vol_floor), c1.volume.max(self.vol_floor)],
             pieces: [c0.pieces.len(), c1.pieces.len()],
+            peaks: [0.0, 0.0],
+            saddle: 0.0,
         };
         let w = heuristic::sanitize(self.h.weight(&ctx));
         let pr = &mut self.pairs[p as usize];
@@ -826,6 +829,9 @@ impl Decimation {
             fn call<E: AreaEstimator>(self) -> Decimation {
                 Engine::<E>::new(self.cx, self.settings).run(self.progress)
             }
+        }
+        if settings.heuristic.heuristic().engine() == HeuristicEngine::Clearance {
+            return clearance::run(cx, settings, progress);
         }
         settings.estimator.with(Run {
             cx,

@@ -64,6 +64,7 @@
 // Negated float comparisons (`!(x > eps)`) are deliberate: they send NaN to the safe side.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod clearance;
 mod plane;
 mod polygon;
 mod polyhedron;
@@ -71,6 +72,7 @@ mod polyhedron;
 mod testutil;
 pub(crate) mod vec;
 
+pub use clearance::ClearanceField;
 pub use plane::{Classification, Plane, Side};
 pub use polygon::{ConvexPolygon, PolygonSplit, Subtraction};
 pub use polyhedron::{ConvexPolyhedron, Cut, PolyhedronSplit, min_volume};

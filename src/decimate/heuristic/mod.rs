@@ -52,6 +52,21 @@ pub struct PairContext {
     pub volumes: [f64; 2],
     /// Number of convex pieces in each cell.
     pub pieces: [usize; 2],
+    /// The two cells' peak clearance (the `clearance` engine only; 0 otherwise).
+    pub peaks: [f64; 2],
+    /// The highest pass between the two cells (the `clearance` engine only; 0 otherwise).
+    pub saddle: f64,
+}
+
+/// Which engine runs a heuristic.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Engine {
+    /// The thesis's engine: pair weights from portal areas and the cells' projected areas
+    /// (by the chosen estimator) and volumes.
+    Projected,
+    /// The clearance engine ([`super::clearance`]): pair weights from the components'
+    /// peak clearance and the saddle between them; no estimator.
+    Clearance,
 }
 
 impl PairContext {
@@ -71,6 +86,10 @@ pub trait Heuristic: Send + Sync {
     /// re-weighed, even when its projected areas did not change).
     fn uses_volume(&self) -> bool {
         false
+    }
+    /// The engine that maintains this heuristic's inputs.
+    fn engine(&self) -> Engine {
+        Engine::Projected
     }
 }
 
@@ -105,6 +124,7 @@ heuristics! {
     Aspect => aspect::Aspect,
     Refined => refined::Refined,
     Volume => volume::VolumeRatio,
+    Clearance => clearance::Clearance,
 }
 
 impl HeuristicKind {
@@ -169,6 +189,8 @@ mod tests {
             projected: [4.0, 1.0],
             volumes: [8.0, 1.0],
             pieces: [1, 1],
+            peaks: [0.0, 0.0],
+            saddle: 0.0,
         };
         let bad = PairContext {
             projected: [1.0, 1.0],
@@ -184,7 +206,7 @@ mod tests {
         assert!("nope".parse::<HeuristicKind>().is_err());
         assert_eq!(
             HeuristicKind::parse("nope").unwrap_err().to_string(),
-            "unknown heuristic \"nope\"; use aspect, refined or volume"
+            "unknown heuristic \"nope\"; use aspect, refined, volume or clearance"
         );
         for h in HeuristicKind::ALL {
             assert_eq!(serde_json::to_string(&h).unwrap(), format!("\"{h}\""));

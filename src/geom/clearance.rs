@@ -1,14 +1,13 @@
-//! Clearance: the distance from a point to the nearest model polygon, answered by a
+//! Clearance: the distance from a point to the nearest of a set of polygons, answered by a
 //! bounding-volume hierarchy over the polygons' fan triangles.
 //!
-//! The tree is built by median splits on the longest axis of the triangles' centroid box
-//! (deterministic: ties broken by triangle index), leaves of at most [`LEAF`] triangles.
-//! A query is a best-first descent that skips every node whose box is farther than the
-//! nearest triangle found so far, so it is exact (up to floating-point rounding of the
-//! point–triangle distance, Ericson 2005, 5.1.5) and typically logarithmic.
+//! The tree is built by median splits on the longest axis of the triangles' centroid box,
+//! leaves of at most [`LEAF`] triangles. A query is a best-first descent that skips only
+//! nodes whose box is at least as far as the nearest triangle found so far, so its answer
+//! is the minimum of the point–triangle distances (Ericson 2005, 5.1.5) over *all*
+//! triangles, whatever the tree's shape: the same inputs give the same bits.
 
 use crate::base::vec::{dot, sub};
-use crate::model::Model;
 
 /// Triangles per leaf.
 const LEAF: usize = 4;
@@ -97,17 +96,13 @@ fn tri_dist2(p: P3, t: &[P3; 3]) -> f64 {
 }
 
 impl ClearanceField {
-    /// The field of `model`'s polygons (each fanned into triangles).
-    pub fn new(model: &Model) -> Self {
-        let mut tris = Vec::with_capacity(model.triangle_count());
-        for poly in &model.polygons {
-            let v = &poly.verts;
+    /// The field of convex (or star-shaped from their first vertex) polygons, each fanned
+    /// into triangles.
+    pub fn from_polygons<'a>(polygons: impl IntoIterator<Item = &'a [P3]>) -> Self {
+        let mut tris = Vec::new();
+        for v in polygons {
             for i in 1..v.len().saturating_sub(1) {
-                tris.push([
-                    model.vertices[v[0].0 as usize],
-                    model.vertices[v[i].0 as usize],
-                    model.vertices[v[i + 1].0 as usize],
-                ]);
+                tris.push([v[0], v[i], v[i + 1]]);
             }
         }
         Self::from_triangles(tris)

@@ -1,4 +1,5 @@
-//! Rooms without an oracle: a scale-free merge of cells by the clearance field.
+//! The `clearance` merge: rooms without an oracle, by a scale-free merge of cells along the
+//! clearance field.
 //!
 //! The thesis's weights (cell-portal aspect, 4.1.4–4.3.3) compare a portal with the
 //! cells' projected areas. They leave three problems open (4.3.3 spike cells, 4.3.5 noisy
@@ -10,7 +11,8 @@
 //! that decides which basins are significant).
 //!
 //! **Field.** The clearance of a point is its distance to the nearest model polygon
-//! ([`clearance::ClearanceField`], exact up to rounding). A cell's value `f(c)` is the
+//! ([`ClearanceField`], exact up to rounding; the polygons are the complex's occluders,
+//! i.e. the model's polygons as placed on cell boundaries). A cell's value `f(c)` is the
 //! highest clearance among a few samples of it (its centroid, and the midpoints from the
 //! centroid to each vertex and each face centroid): an estimate of the largest empty ball
 //! centred in the cell. A portal's value is the lowest clearance along a real path from
@@ -38,19 +40,22 @@
 //! of that inequality are lengths of the same model, so the rule does not depend on the
 //! model's scale, units, position or orientation (thesis 4.4's request for measures
 //! normalised by values elsewhere in the model). [`DEFAULT_RATIO`] was chosen on the tuning
-//! half of the ground-truth suite ([`crate::suite`]).
-
-pub mod clearance;
+//! half of the ground-truth suite (`src/suite/`).
+//!
+//! The weight formula is the heuristic's ([`Clearance`](super::heuristic::Clearance));
+//! this file keeps the field and the engine, which maintains each component's peak and
+//! its saddles instead of projected areas.
 
 use std::cmp::Ordering;
 use std::collections::{BTreeMap, BinaryHeap};
+use std::time::Instant;
 
+use super::heuristic::{PairContext, sanitize};
+use super::{Decimation, DecimationStats, Settings, Step, StopReason, StopRule};
+use crate::base::vec::lerp;
 use crate::complex::CellComplex;
-use crate::decimate::{Step, StopReason, StopRule};
+use crate::geom::ClearanceField;
 use crate::ids::CellId;
-use crate::model::Model;
-
-pub use clearance::ClearanceField;
 
 /// The default stop ratio (`threshold:R` of the `clearance` heuristic): a pass must be
 /// narrower than `1 / R` of the smaller of the two rooms it joins to keep them apart.
@@ -59,12 +64,12 @@ pub const DEFAULT_RATIO: f64 = 1.8;
 /// The clearance field sampled on the cell complex (see the module docs).
 #[derive(Clone, Debug)]
 pub struct CellField {
-    /// Peak value `f(c)` by cell id: the clearance at the cell's centroid (0 for cells
-    /// that are not active).
+    /// Peak value `f(c)` by cell id: the highest clearance among the cell's samples (0
+    /// for cells that are not active).
     pub value: Vec<f64>,
     /// Passage value by portal (index into `CellComplex::portals`): the lowest clearance
-    /// along the path from one cell's centroid through the portal to the other's, for the
-    /// best of the portal's pieces.
+    /// along the best sampled path from one cell's best sample through the portal to the
+    /// other's.
     pub passage: Vec<f64>,
 }
 
@@ -88,13 +93,19 @@ fn segment_min(field: &ClearanceField, p: [f64; 3], q: [f64; 3]) -> f64 {
 }
 
 fn mid(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [(a[0] + b[0]) * 0.5, (a[1] + b[1]) * 0.5, (a[2] + b[2]) * 0.5]
+    lerp(&a, &b, 0.5)
 }
 
 impl CellField {
-    /// The field of the active cells of `cx`, with distances to `model`'s polygons.
-    pub fn new(model: &Model, cx: &CellComplex) -> Self {
-        let field = ClearanceField::new(model);
+    /// The field of the active cells of `cx`: distances to the occluders of its live
+    /// patches (the model's polygons, as placed).
+    pub fn new(cx: &CellComplex) -> Self {
+        let field = ClearanceField::from_polygons(
+            cx.patches
+                .iter()
+                .filter(|p| p.alive)
+                .flat_map(|p| p.occluders.iter().map(|o| o.polygon.verts.as_slice())),
+        );
         let mut value = vec![0.0; cx.cells.len()];
         let mut best = vec![[0.0; 3]; cx.cells.len()];
         for (id, c) in cx.active_cells() {
@@ -110,7 +121,7 @@ impl CellField {
                     (bv, bp) = (d, x);
                 }
             }
-            value[i] = bv.max(0.0);
+            value[i] = if bv.is_finite() { bv.max(0.0) } else { 0.0 };
             best[i] = bp;
         }
         let passage = cx
@@ -128,33 +139,18 @@ impl CellField {
                     let mut ys = vec![m];
                     ys.extend(piece.verts.iter().map(|&v| mid(m, v)));
                     for y in ys {
-                        // Upper bound first: the path cannot beat its own midpoint.
+                        // Upper bound first: a path is never higher than any of its points.
                         if field.distance(y) <= s {
                             continue;
                         }
                         s = s.max(segment_min(&field, xa, y).min(segment_min(&field, y, xb)));
                     }
                 }
-                s
+                if s.is_finite() { s } else { 0.0 }
             })
             .collect();
         CellField { value, passage }
     }
-}
-
-/// The result of [`merge`]: the collapses, in order, and why it stopped.
-#[derive(Clone, Debug)]
-pub struct Merge {
-    /// The collapses (as the decimation records them; `projected` is unused: `[0, 0]`).
-    pub steps: Vec<Step>,
-    /// Why the merge stopped.
-    pub stop: StopReason,
-    /// Peak value of each surviving component, by its cell id (others 0).
-    pub peaks: Vec<f64>,
-    /// Initial active cells.
-    pub initial_cells: usize,
-    /// Initial neighbouring pairs.
-    pub initial_pairs: usize,
 }
 
 /// A neighbour of a component: the saddle and the portal area between them.
@@ -195,47 +191,69 @@ impl Ord for Entry {
     }
 }
 
-/// Floor of saddles, so weights stay finite.
-const TINY: f64 = 1e-300;
-
-fn weight(pa: f64, pb: f64, s: f64) -> f64 {
-    pa.min(pb) / s.max(TINY)
+/// Per-component state.
+#[derive(Clone, Debug, Default)]
+struct Comp {
+    alive: bool,
+    peak: f64,
+    volume: f64,
+    pieces: usize,
+    links: BTreeMap<u32, Link>,
 }
 
-/// Merges the active cells of `cx` by the persistence of `field` (module docs) until
-/// `stop` holds: `threshold:R` stops when the lowest weight is `>= R`, `cells:N` at `N`
-/// cells, `none` when no pair is left.
-pub fn merge(cx: &CellComplex, field: &CellField, stop: StopRule) -> Merge {
+/// Runs the clearance merge on the active cells of `cx` (the `clearance` heuristic's
+/// engine; `settings.estimator` is not used).
+pub(crate) fn run(cx: &CellComplex, settings: &Settings, progress: &mut dyn FnMut(usize, usize)) -> Decimation {
+    let t0 = Instant::now();
+    let h = settings.heuristic.heuristic();
+    let field = CellField::new(cx);
     let n = cx.cells.len();
-    let f = &field.value;
-    let mut alive = vec![false; n];
-    let mut peak = vec![0.0f64; n];
-    let mut links: Vec<BTreeMap<u32, Link>> = vec![BTreeMap::new(); n];
+    let mut comps: Vec<Comp> = vec![Comp::default(); n];
     let mut cells = 0usize;
-    for (id, _) in cx.active_cells() {
-        alive[id.idx()] = true;
-        peak[id.idx()] = f[id.idx()];
+    let mut stats = DecimationStats::default();
+    for (id, c) in cx.active_cells() {
+        let k = &mut comps[id.idx()];
+        k.alive = true;
+        k.peak = field.value[id.idx()];
+        k.volume = c.poly.volume();
+        k.pieces = 1;
         cells += 1;
     }
     for (k, p) in cx.portals.iter().enumerate() {
         let [a, b] = p.cells;
-        if !(alive[a.idx()] && alive[b.idx()]) || a == b {
+        if !(comps[a.idx()].alive && comps[b.idx()].alive) || a == b {
             continue;
         }
         let s = field.passage[k];
         for (x, y) in [(a, b), (b, a)] {
-            let l = links[x.idx()].entry(y.0).or_insert(Link { saddle: 0.0, area: 0.0 });
+            let l = comps[x.idx()]
+                .links
+                .entry(y.0)
+                .or_insert(Link { saddle: 0.0, area: 0.0 });
             l.saddle = l.saddle.max(s);
             l.area += p.area;
         }
     }
-    let initial_pairs = links.iter().map(|m| m.len()).sum::<usize>() / 2;
-    let mut heap = BinaryHeap::with_capacity(initial_pairs * 2);
-    for (a, m) in links.iter().enumerate() {
-        for (&b, l) in m {
+    stats.initial_cells = cells;
+    stats.initial_pairs = comps.iter().map(|c| c.links.len()).sum::<usize>() / 2;
+    stats.regions = regions(&comps);
+    let weigh = |x: &Comp, y: &Comp, l: &Link| {
+        sanitize(h.weight(&PairContext {
+            portal_area: l.area,
+            projected: [0.0, 0.0],
+            volumes: [x.volume, y.volume],
+            pieces: [x.pieces, y.pieces],
+            peaks: [x.peak, y.peak],
+            saddle: l.saddle,
+        }))
+    };
+    let mut heap = BinaryHeap::with_capacity(stats.initial_pairs * 2);
+    for (a, c) in comps.iter().enumerate() {
+        for (&b, l) in &c.links {
             if (a as u32) < b {
+                stats.weights_computed += 1;
                 heap.push(Entry {
-                    weight: weight(peak[a], peak[b as usize], l.saddle),
+                    weight: weigh(c, &comps[b as usize], l),
                     saddle: l.saddle,
                     a: a as u32,
                     b,
@@ -243,9 +261,11 @@ pub fn merge(cx: &CellComplex, field: &CellField, stop: StopRule) -> Merge {
             }
         }
     }
+    stats.init_seconds = t0.elapsed().as_secs_f64();
+    let t1 = Instant::now();
     let mut steps = Vec::new();
-    let reason = loop {
-        if let StopRule::Cells(target) = stop
+    let stop = loop {
+        if let StopRule::Cells(target) = settings.stop
             && cells <= target
         {
             break StopReason::Cells { target };
@@ -255,17 +275,17 @@ pub fn merge(cx: &CellComplex, field: &CellField, stop: StopRule) -> Merge {
         };
         let (a, b) = (e.a as usize, e.b as usize);
         // Stale entries: a side merged away, or the weight or saddle changed since.
-        if !(alive[a] && alive[b]) {
+        if !(comps[a].alive && comps[b].alive) {
             continue;
         }
-        let Some(l) = links[a].get(&e.b).copied() else {
+        let Some(l) = comps[a].links.get(&e.b).copied() else {
             continue;
         };
-        let w = weight(peak[a], peak[b], l.saddle);
-        if w.to_bits() != e.weight.to_bits() || l.saddle.to_bits() != e.saddle.to_bits() {
+        if l.saddle.to_bits() != e.saddle.to_bits() || weigh(&comps[a], &comps[b], &l).to_bits() != e.weight.to_bits() {
             continue;
         }
-        if let StopRule::Threshold(r) = stop
+        let w = e.weight;
+        if let StopRule::Threshold(r) = settings.stop
             && w >= r
         {
             break StopReason::Threshold {
@@ -274,37 +294,38 @@ pub fn merge(cx: &CellComplex, field: &CellField, stop: StopRule) -> Merge {
             };
         }
         // Collapse b into a (a < b: the survivor keeps the lower id).
-        let (pa, pb) = (peak[a], peak[b]);
-        alive[b] = false;
+        let (pa, pb) = (comps[a].peak, comps[b].peak);
+        let cb = std::mem::take(&mut comps[b]);
+        let mut ca = std::mem::take(&mut comps[a]);
+        ca.links.remove(&e.b);
         cells -= 1;
-        let mb = std::mem::take(&mut links[b]);
-        let mut ma = std::mem::take(&mut links[a]);
-        ma.remove(&e.b);
         // Pairs whose weight may change: every neighbour of the side with the lower peak
-        // (its partner's peak rises to the higher one), and shared neighbours (saddle).
+        // (its partner's peak rises to the higher one), and every neighbour of b (saddle,
+        // volume); with the volumes and piece counts in the context, all of them.
         let mut touched: Vec<u32> = Vec::new();
-        for (&k, lk) in &mb {
+        for (&k, lk) in &cb.links {
             if k as usize == a {
                 continue;
             }
-            let m = &mut links[k as usize];
+            let m = &mut comps[k as usize].links;
             m.remove(&e.b);
-            let entry = ma.entry(k).or_insert(Link { saddle: 0.0, area: 0.0 });
-            let merged = Link {
+            let entry = ca.links.entry(k).or_insert(Link { saddle: 0.0, area: 0.0 });
+            *entry = Link {
                 saddle: entry.saddle.max(lk.saddle),
                 area: entry.area + lk.area,
             };
-            *entry = merged;
-            m.insert(e.a, merged);
-            if pb <= pa {
-                touched.push(k);
-            }
+            m.insert(e.a, *entry);
         }
-        if pa < pb {
-            touched.extend(ma.keys().copied());
+        let changed_volume = h.uses_volume();
+        if pa < pb || changed_volume {
+            touched.extend(ca.links.keys().copied());
+        } else {
+            touched.extend(cb.links.keys().copied().filter(|&k| k as usize != a));
         }
-        peak[a] = pa.max(pb);
-        peak[b] = 0.0;
+        ca.peak = pa.max(pb);
+        ca.volume += cb.volume;
+        ca.pieces += cb.pieces;
+        ca.alive = true;
         steps.push(Step {
             a: CellId(e.a),
             b: CellId(e.b),
@@ -313,25 +334,54 @@ pub fn merge(cx: &CellComplex, field: &CellField, stop: StopRule) -> Merge {
             portal_area: l.area,
             projected: [0.0, 0.0],
         });
+        progress(steps.len(), cells);
+        comps[a] = ca;
         touched.sort_unstable();
         touched.dedup();
         for k in touched {
-            let lk = ma[&k];
+            let lk = comps[a].links[&k];
             let (x, y) = if (a as u32) < k { (a as u32, k) } else { (k, a as u32) };
+            stats.weights_computed += 1;
             heap.push(Entry {
-                weight: weight(peak[a], peak[k as usize], lk.saddle),
+                weight: weigh(&comps[x as usize], &comps[y as usize], &lk),
                 saddle: lk.saddle,
                 a: x,
                 b: y,
             });
         }
-        links[a] = ma;
     };
-    Merge {
+    stats.steps = steps.len();
+    stats.collapse_seconds = t1.elapsed().as_secs_f64();
+    let partition = Decimation::replay(cx, &steps).expect("the merge records live pairs, lower id first");
+    Decimation {
+        settings: *settings,
         steps,
-        stop: reason,
-        peaks: peak,
-        initial_cells: cx.active_cells().count(),
-        initial_pairs,
+        stop,
+        stats,
+        partition,
     }
+}
+
+/// Connected regions of the component graph.
+fn regions(comps: &[Comp]) -> usize {
+    let mut seen = vec![false; comps.len()];
+    let mut count = 0;
+    let mut stack = Vec::new();
+    for s in 0..comps.len() {
+        if !comps[s].alive || seen[s] {
+            continue;
+        }
+        count += 1;
+        seen[s] = true;
+        stack.push(s);
+        while let Some(x) = stack.pop() {
+            for &y in comps[x].links.keys() {
+                if !seen[y as usize] {
+                    seen[y as usize] = true;
+                    stack.push(y as usize);
+                }
+            }
+        }
+    }
+    count
 }
