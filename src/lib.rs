@@ -18,6 +18,7 @@ pub mod geom;
 pub mod ids;
 pub mod model;
 pub mod output;
+pub mod pipeline;
 pub mod predicates;
 pub mod scenes;
 pub mod thesis_models;

@@ -130,7 +130,7 @@ fn one_experiment_writes_its_files_and_evaluation() {
     let truth = portalfind::thesis_models::four_room_optimized().truth;
     for (room, re) in truth.rooms.iter().zip(t["per_room"].as_array().unwrap()) {
         for (s, c) in room.samples.iter().zip(re["sample_cells"].as_array().unwrap()) {
-            assert_eq!(loc.locate(s).map(u64::from), c.as_u64());
+            assert_eq!(loc.locate(s).map(|c| u64::from(c.0)), c.as_u64());
         }
     }
     let csv = std::fs::read_to_string(out.join("summary.csv")).unwrap();
