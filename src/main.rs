@@ -702,7 +702,7 @@ fn run_decimation(
                     Instant::now()
                 });
                 let steps = p.done;
-                if steps % 256 != 0 {
+                if !steps.is_multiple_of(256) {
                     return;
                 }
                 if !shown && t2.elapsed().as_secs_f64() > 1.0 {

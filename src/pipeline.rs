@@ -214,7 +214,7 @@ impl SubdivisionStats {
 pub enum PipelineError {
     /// The model file cannot be loaded.
     #[error("cannot load the model")]
-    Load(#[source] ModelError),
+    Load(#[source] Box<ModelError>),
     /// The tetrahedralization cannot be built.
     #[error("cannot tetrahedralize {model}")]
     Tetrahedralize {
@@ -242,7 +242,7 @@ pub struct Cells {
 /// Loads and cleans a model file; returns it with the seconds it took.
 pub fn load(path: &Path) -> Result<(Model, f64), PipelineError> {
     let t0 = Instant::now();
-    let m = crate::model::load_model(path).map_err(PipelineError::Load)?;
+    let m = crate::model::load_model(path).map_err(|e| PipelineError::Load(Box::new(e)))?;
     Ok((m, t0.elapsed().as_secs_f64()))
 }
 

@@ -102,7 +102,7 @@ pub enum RunError {
     },
     /// The model file cannot be loaded.
     #[error("cannot load the model")]
-    LoadModel(#[source] ModelError),
+    LoadModel(#[source] Box<ModelError>),
     /// The transformed model is invalid.
     #[error("invalid model {name}")]
     InvalidModel {
@@ -110,7 +110,7 @@ pub enum RunError {
         name: String,
         /// Why.
         #[source]
-        source: ModelError,
+        source: Box<ModelError>,
     },
     /// The ground-truth file cannot be read.
     #[error("cannot read truth {}", path.display())]

@@ -586,3 +586,84 @@ fn readme_text(report: &Report, opts: &RunOptions, seconds: f64) -> String {
     }
     s
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The columns `summary.csv` has always had, in order.
+    const COLUMNS: [&str; 40] = [
+        "experiment",
+        "status",
+        "model",
+        "transforms",
+        "subdivision",
+        "heuristic",
+        "estimator",
+        "stop",
+        "vertices",
+        "triangles",
+        "tetrahedra",
+        "cells_split",
+        "exterior_removed",
+        "active_cells",
+        "collapses",
+        "final_cells",
+        "final_portal_pairs",
+        "rooms",
+        "rooms_isolated",
+        "spike_cells",
+        "spike_volume_fraction",
+        "jump_step",
+        "jump_from_end",
+        "weight_max_before",
+        "weight_last_before",
+        "weight_at_jump",
+        "spike_cells_at_jump",
+        "rooms_isolated_at_jump",
+        "doorways",
+        "doorways_matched",
+        "separation_collapses",
+        "separating_portals",
+        "doorways_matched_at_separation",
+        "doorways_by_position_at_separation",
+        "rotation_ours_matched",
+        "rotation_theirs_matched",
+        "separating_compare_ours_matched",
+        "separating_compare_theirs_matched",
+        "seconds",
+        "definition",
+    ];
+
+    #[test]
+    fn summary_header_comes_from_the_row_struct_and_failed_rows_are_mostly_empty() {
+        let err = ExperimentError::UnknownField {
+            file: PathBuf::from("experiments/x.json"),
+            field: "spin".into(),
+        };
+        let mut w = csv::Writer::from_writer(Vec::new());
+        w.serialize(SummaryRow::failed("x", &err, Path::new("experiments/x.json")))
+            .unwrap();
+        let text = String::from_utf8(w.into_inner().unwrap()).unwrap();
+        let mut lines = text.lines();
+        assert_eq!(lines.next().unwrap(), COLUMNS.join(","));
+        let row = lines.next().unwrap();
+        assert!(
+            row.starts_with("x,failed: experiments/x.json: unknown field `spin`"),
+            "{row}"
+        );
+        assert!(
+            row.ends_with(&format!("{},experiments/x.json", ",".repeat(37))),
+            "{row}"
+        );
+    }
+
+    #[test]
+    fn sig_keeps_four_significant_digits() {
+        assert_eq!(sig(0.0), "0");
+        assert_eq!(sig(1.23456), "1.235");
+        assert_eq!(sig(1234.6), "1235");
+        assert_eq!(sig(2.5), "2.5");
+        assert_eq!(sig(0.0001234), "1.234e-4");
+    }
+}

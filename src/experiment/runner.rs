@@ -27,7 +27,7 @@ pub fn load_model(def: &Definition, root: &Path) -> Result<(Model, Option<Ground
         }
         ModelSource::File(p) => {
             let path = root.join(p);
-            let m = crate::model::load_model(&path).map_err(RunError::LoadModel)?;
+            let m = crate::model::load_model(&path).map_err(|e| RunError::LoadModel(Box::new(e)))?;
             if def.transforms.is_empty() {
                 let truth = read_truth(def, root)?;
                 return Ok((m, truth));
@@ -58,7 +58,7 @@ pub fn load_model(def: &Definition, root: &Path) -> Result<(Model, Option<Ground
     }
     let m = crate::model::from_soup(&name, vertices, polygons).map_err(|source| RunError::InvalidModel {
         name: name.clone(),
-        source,
+        source: Box::new(source),
     })?;
     Ok((m, truth))
 }

@@ -90,3 +90,48 @@ where
         OutputError::Write { file: name, source }
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exporters_own_distinct_files_and_only_result_json_is_last() {
+        let list = exporters();
+        let fixed = [
+            "result.json",
+            "weight_curve.csv",
+            "weight_curve.png",
+            "cells.svg",
+            "cells_20.svg",
+        ];
+        for f in fixed {
+            let owners: Vec<&str> = list.iter().filter(|x| x.owns(f)).map(|x| x.name()).collect();
+            assert_eq!(owners.len(), 1, "{f}: {owners:?}");
+        }
+        assert!(!list.iter().any(|x| x.owns("evaluation.json")));
+        let last: Vec<&str> = list.iter().filter(|x| x.last()).map(|x| x.name()).collect();
+        assert_eq!(last, ["result document"]);
+        let mut names: Vec<&str> = list.iter().map(|x| x.name()).collect();
+        names.dedup();
+        assert_eq!(names.len(), list.len());
+    }
+
+    #[test]
+    fn write_atomic_leaves_no_temporary_file_on_error() {
+        let dir = std::env::temp_dir().join(format!("portalfind-export-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("x.txt");
+        let e = write_atomic(&path, |tmp| {
+            std::fs::write(tmp, "partial")?;
+            Err(std::io::Error::other("disk full"))
+        })
+        .unwrap_err();
+        assert_eq!(e.to_string(), "writing x.txt");
+        assert_eq!(std::error::Error::source(&e).unwrap().to_string(), "disk full");
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0);
+        write_atomic(&path, |tmp| std::fs::write(tmp, "whole")).unwrap();
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "whole");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

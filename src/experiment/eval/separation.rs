@@ -317,9 +317,12 @@ mod tests {
         // Both sets hold samples just before: no spike cell, no spike volume.
         assert_eq!((j.spike_cells_before, j.spike_volume_fraction_before), (0, 0.0));
         assert_eq!(j.rooms, [vec!["west".to_string()], vec!["east".to_string()]]);
-        assert!(!j.stop_before_jump, "the stopped run (2 collapses) ends before step 4");
+        assert!(j.stop_before_jump, "the stopped run (2 collapses) ends before step 4");
         assert_eq!(merges.len(), 1);
         assert_eq!(merges[0].rooms, [vec![0], vec![1]]);
+        // A stopped run of all four collapses went past the jump.
+        let (jump, _) = full_run_analysis(vec![1.0; 5], &names(), &located, &steps, 5, 5.0, 4);
+        assert!(!jump.unwrap().stop_before_jump);
     }
 
     #[test]

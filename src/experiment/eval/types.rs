@@ -10,9 +10,9 @@ use serde_json::{Map, Value};
 /// `evaluation.json`.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Evaluation {
-    /// Always [`SCHEMA`].
+    /// Always [`SCHEMA`](super::SCHEMA).
     pub schema: String,
-    /// [`SCHEMA_VERSION`].
+    /// [`SCHEMA_VERSION`](super::SCHEMA_VERSION).
     pub schema_version: u32,
     /// The experiment's name.
     pub experiment: String,
@@ -203,7 +203,7 @@ pub struct Separation {
     /// Of those, the ones whose portal centroid lies within `position_tolerance` of the
     /// doorway's centre.
     pub doorways_matched_by_position: usize,
-    /// Absolute position tolerance: [`SEPARATION_POSITION_TOLERANCE`] × the bbox diagonal.
+    /// Absolute position tolerance: [`SEPARATION_POSITION_TOLERANCE`](super::SEPARATION_POSITION_TOLERANCE) × the bbox diagonal.
     pub position_tolerance: f64,
     /// Separating portals matched by some doorway.
     pub portals_at_doorways: usize,
