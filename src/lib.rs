@@ -3,6 +3,12 @@
 //! See `ARCHITECTURE.md` for the layers and their invariants. In short:
 //! [`predicates`] (exact geometry) ← [`delaunay`] (tetrahedralization) and [`model`] (input)
 //! ← later stages (cell complex, decimation).
+//!
+//! The entry point is [`pipeline`]: [`pipeline::run`] loads a model file and runs
+//! subdivision (Delaunay or BSP), cell complex and decimation to the `result.json`
+//! document; [`output::write_outputs`] writes the files of every registered
+//! [`output::Exporter`]. The `portalfind` binary (feature `cli`, on by default) and the
+//! experiment runner ([`experiment::run_all`]) both go through it.
 
 // Index loops over fixed-size vertex/face slots read more clearly than iterator chains
 // in geometry code.
