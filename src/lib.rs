@@ -4,6 +4,12 @@
 //! rigid transforms, vector helpers; uses nothing above it) ← [`predicates`] (exact
 //! geometry) ← [`delaunay`] (tetrahedralization) and [`model`] (input) ← later stages (cell
 //! complex, decimation); [`generate`] builds test and thesis models.
+//!
+//! The entry point is [`pipeline`]: [`pipeline::run`] loads a model file and runs
+//! subdivision (Delaunay or BSP), cell complex and decimation to the `result.json`
+//! document; [`output::write_outputs`] writes the files of every registered
+//! [`output::Exporter`]. The `portalfind` binary (feature `cli`, on by default) and the
+//! experiment runner ([`experiment::run_all`]) both go through it.
 
 // Index loops over fixed-size vertex/face slots read more clearly than iterator chains
 // in geometry code.
@@ -21,15 +27,9 @@ pub mod geom;
 pub mod ids;
 pub mod model;
 pub mod output;
+pub mod pipeline;
 pub mod predicates;
 pub mod tolerances;
-
-// compat re-export, removed after merge
-#[doc(hidden)]
-pub use generate::scenes;
-// compat re-export, removed after merge
-#[doc(hidden)]
-pub use generate::thesis as thesis_models;
 
 pub use ids::{CellId, PolygonId, TetId, VertexId};
 pub use tolerances::Tolerances;

@@ -3,8 +3,8 @@
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
 use portalfind::bench;
-use portalfind::complex::Subdivision;
 use portalfind::delaunay::Tetrahedralization;
+use portalfind::pipeline::{self, CellSettings, Progress, Stage, Subdivision};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -53,7 +53,7 @@ enum Cmd {
         /// model's polygons) or bsp (the thesis's baseline: a BSP tree whose planes are the
         /// model's polygons, chosen to split the fewest others).
         #[arg(long, default_value = "delaunay")]
-        subdivision: portalfind::complex::Subdivision,
+        subdivision: Subdivision,
         /// For bsp: candidate planes evaluated per node (0: all; more is slower, not
         /// always better: the choice is greedy).
         #[arg(long, default_value_t = portalfind::bsp::DEFAULT_MAX_CANDIDATES)]
@@ -95,7 +95,7 @@ enum Cmd {
         /// model's polygons) or bsp (the thesis's baseline: a BSP tree whose planes are the
         /// model's polygons, chosen to split the fewest others).
         #[arg(long, default_value = "delaunay")]
-        subdivision: portalfind::complex::Subdivision,
+        subdivision: Subdivision,
         /// For bsp: candidate planes evaluated per node (0: all; more is slower, not
         /// always better: the choice is greedy).
         #[arg(long, default_value_t = portalfind::bsp::DEFAULT_MAX_CANDIDATES)]
@@ -239,7 +239,7 @@ fn run(cli: Cli) -> Result<()> {
             &model,
             !no_validate,
             pointfile.as_deref(),
-            Cells::new(subdivision, bsp_candidates),
+            cell_settings(subdivision, bsp_candidates),
         ),
         Cmd::Gen {
             what: GenCmd::Rooms { nx, ny, tess, out },
@@ -284,7 +284,7 @@ fn run(cli: Cli) -> Result<()> {
                 estimator,
                 stop,
                 &out,
-                Cells::new(subdivision, bsp_candidates),
+                cell_settings(subdivision, bsp_candidates),
                 &snapshots,
             )
         }),
@@ -331,77 +331,39 @@ impl LazyBar {
     }
 }
 
+impl LazyBar {
+    /// Clears the bar (the stage is over).
+    fn finish(&self) {
+        self.bar.finish_and_clear();
+    }
+}
+
 impl Drop for LazyBar {
     fn drop(&mut self) {
         self.bar.finish_and_clear();
     }
 }
 
-/// Tetrahedralization and cell complex with lazy progress bars.
-/// How `complex` and `run` make cells.
-#[derive(Clone, Copy)]
-struct Cells {
-    subdivision: Subdivision,
-    bsp: portalfind::bsp::BspSettings,
-}
-
-impl Cells {
-    fn new(subdivision: Subdivision, bsp_candidates: usize) -> Self {
-        Cells {
-            subdivision,
-            bsp: portalfind::bsp::BspSettings {
-                max_candidates: bsp_candidates,
-            },
-        }
-    }
-}
-
-/// What [`build_complex`] made: the complex, the stages before the complex's own timings,
-/// and statistics of the subdivision itself.
-struct Built {
-    cx: portalfind::complex::CellComplex,
-    pre: Vec<(String, f64)>,
-    stats: serde_json::Value,
-}
-
-fn build_complex(m: &portalfind::model::Model, path: &std::path::Path, how: Cells) -> Result<Built> {
-    match how.subdivision {
-        Subdivision::Delaunay => {
-            let mut bar = LazyBar::new();
-            let t0 = Instant::now();
-            let t = Tetrahedralization::build_with_progress(&m.vertices, 0x5eed, true, &mut |d, n| {
-                bar.update("tetrahedralizing", d, n)
-            })
-            .with_context(|| format!("cannot tetrahedralize {}", path.display()))?;
-            let tt = t0.elapsed().as_secs_f64();
-            let cx = portalfind::complex::CellComplex::build_with_progress(m, &t, &mut |s, d, n| bar.update(s, d, n));
-            let stats = serde_json::json!({
-                "tetrahedra": t.num_tets(),
-                "hull_faces": t.num_hull_faces(),
-                "tetrahedralization_seconds": tt,
-            });
-            Ok(Built {
-                cx,
-                pre: vec![("delaunay tetrahedralization".into(), tt)],
-                stats,
-            })
-        }
-        Subdivision::Bsp => {
-            let (cx, stats) = portalfind::bsp::build_complex_with(m, &how.bsp);
-            Ok(Built {
-                cx,
-                pre: Vec::new(),
-                stats: serde_json::to_value(&stats)?,
-            })
-        }
+/// How `complex` and `run` make cells: the pipeline's settings with the CLI's choices.
+fn cell_settings(subdivision: Subdivision, bsp_candidates: usize) -> CellSettings {
+    CellSettings {
+        subdivision,
+        bsp: portalfind::bsp::BspSettings {
+            max_candidates: bsp_candidates,
+        },
+        ..CellSettings::default()
     }
 }
 
 fn load(path: &std::path::Path) -> Result<portalfind::model::Model> {
-    let t0 = Instant::now();
-    let m = portalfind::model::load_model(path).context("cannot load the model")?;
-    eprintln!("loaded {} in {:.3} s", path.display(), t0.elapsed().as_secs_f64());
-    Ok(m)
+    Ok(load_timed(path)?.0)
+}
+
+/// [`pipeline::load`], reported on stderr.
+fn load_timed(path: &std::path::Path) -> Result<(portalfind::model::Model, f64)> {
+    let (m, secs) = pipeline::load(path)?;
+    eprintln!("loaded {} in {secs:.3} s", path.display());
+    Ok((m, secs))
 }
 
 fn info(path: &std::path::Path) -> Result<()> {
@@ -460,9 +422,19 @@ fn tetra(path: &std::path::Path, validate: bool) -> Result<()> {
     Ok(())
 }
 
-fn complex(path: &std::path::Path, validate: bool, pointfile: Option<&std::path::Path>, how: Cells) -> Result<()> {
+fn complex(
+    path: &std::path::Path,
+    validate: bool,
+    pointfile: Option<&std::path::Path>,
+    how: CellSettings,
+) -> Result<()> {
     let m = load(path)?;
-    let Built { cx, pre, stats } = build_complex(&m, path, how)?;
+    let mut bar = LazyBar::new();
+    let pipeline::Cells { cx, stats, stages: pre } = pipeline::build_cells(&m, path, &how, &mut |p: Progress| {
+        bar.update(p.stage.name(), p.done, p.total)
+    })?;
+    drop(bar);
+    let stats = stats.to_json();
     let s = &cx.stats;
     println!("{:<44}{:>10}", "stage", "seconds");
     for (name, secs) in &pre {
@@ -577,7 +549,7 @@ fn complex(path: &std::path::Path, validate: bool, pointfile: Option<&std::path:
 }
 
 fn gen_thesis(name: &str, out: &std::path::Path) -> Result<()> {
-    use portalfind::thesis_models;
+    use portalfind::generate::thesis as thesis_models;
     let models = if name == "all" {
         thesis_models::all()
     } else {
@@ -610,7 +582,7 @@ fn gen_rooms(nx: usize, ny: usize, tess: usize, out: &std::path::Path) -> Result
     if nx == 0 || ny == 0 || nx.saturating_mul(ny) > 1_000_000 {
         bail!("--nx and --ny must be at least 1 and give at most a million rooms (got {nx} × {ny})");
     }
-    let (s, centres) = portalfind::scenes::room_grid(nx, ny, tess);
+    let (s, centres) = portalfind::generate::scenes::room_grid(nx, ny, tess);
     let text = match out.extension().and_then(|e| e.to_str()) {
         Some("obj") => write::obj_text(
             &format!("portalfind gen rooms --nx {nx} --ny {ny} --tess {tess}\nroom centres: {centres:?}"),
@@ -696,59 +668,72 @@ fn run_decimation(
     estimator: portalfind::decimate::Estimator,
     stop: portalfind::decimate::StopRule,
     out: &std::path::Path,
-    how: Cells,
+    how: CellSettings,
     snapshot_counts: &[usize],
 ) -> Result<()> {
-    use portalfind::decimate::{Decimation, QueueMode, Settings};
+    use portalfind::decimate::{QueueMode, Settings};
     let t0 = Instant::now();
-    let m = load(path)?;
-    let mut stages: Vec<(String, f64)> = vec![("load model".into(), t0.elapsed().as_secs_f64())];
-    let Built {
-        cx,
-        pre,
-        stats: subdivision_stats,
-    } = build_complex(&m, path, how)?;
-    stages.extend(pre);
-    stages.extend(cx.stats.timings.iter().cloned());
-    let settings = Settings {
-        heuristic,
-        estimator,
-        stop,
-        queue: QueueMode::Auto,
+    let (m, load_secs) = load_timed(path)?;
+    let settings = pipeline::Settings {
+        cells: how,
+        decimation: Settings {
+            heuristic,
+            estimator,
+            stop,
+            queue: QueueMode::Auto,
+        },
     };
-    let bar = indicatif::ProgressBar::with_draw_target(None, indicatif::ProgressDrawTarget::hidden());
-    bar.set_style(
+    let mut bar = LazyBar::new();
+    let dec_bar = indicatif::ProgressBar::with_draw_target(None, indicatif::ProgressDrawTarget::hidden());
+    dec_bar.set_style(
         indicatif::ProgressStyle::with_template("decimating {bar:40} {pos}/{len} collapses, {msg} [{elapsed}]")
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
-    let (t2, mut shown) = (Instant::now(), false);
-    let dec = Decimation::run_with_progress(&cx, &settings, &mut |steps, cells| {
-        if steps % 256 != 0 {
-            return;
-        }
-        if !shown && t2.elapsed().as_secs_f64() > 1.0 {
-            shown = true;
-            bar.set_length((steps + cells) as u64);
-            bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
-        }
-        if shown {
-            bar.set_position(steps as u64);
-            bar.set_message(format!("{cells} cells"));
-        }
-    });
-    bar.finish_and_clear();
-    stages.push(("decimation: initial weights".into(), dec.stats.init_seconds));
-    stages.push(("decimation: collapses".into(), dec.stats.collapse_seconds));
-    let mut doc = portalfind::output::result_doc(&m, path, &cx, &dec, &stages)?;
-    doc.settings.subdivision = how.subdivision;
-    doc.subdivision_stats = subdivision_stats;
+    let (mut t2, mut shown) = (None::<Instant>, false);
+    let run = pipeline::run_model(
+        &m,
+        path,
+        &settings,
+        vec![("load model".into(), load_secs)],
+        &mut |p: Progress| match p.stage {
+            Stage::Decimate { cells } => {
+                let t2 = *t2.get_or_insert_with(|| {
+                    bar.finish();
+                    Instant::now()
+                });
+                let steps = p.done;
+                if !steps.is_multiple_of(256) {
+                    return;
+                }
+                if !shown && t2.elapsed().as_secs_f64() > 1.0 {
+                    shown = true;
+                    dec_bar.set_length(p.total as u64);
+                    dec_bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+                }
+                if shown {
+                    dec_bar.set_position(steps as u64);
+                    dec_bar.set_message(format!("{cells} cells"));
+                }
+            }
+            _ => bar.update(p.stage.name(), p.done, p.total),
+        },
+    )?;
+    dec_bar.finish_and_clear();
+    drop(bar);
+    let pipeline::Run {
+        cx,
+        dec,
+        mut stages,
+        doc,
+        ..
+    } = run;
     let t3 = Instant::now();
     // Snapshots are rebuilt before anything is written, so a count the run never passed
     // through fails without leaving files behind.
     let snapshots = snapshot_counts
         .iter()
         .map(|&n| portalfind::output::snapshot(&m, path, &cx, &dec, n))
-        .collect::<Result<Vec<_>>>()?;
+        .collect::<Result<Vec<_>, _>>()?;
     let files = portalfind::output::write_outputs_with_snapshots(out, &m, &doc, &dec, &snapshots)?;
     stages.push(("write outputs".into(), t3.elapsed().as_secs_f64()));
     println!("{:<44}{:>10}", "stage", "seconds");

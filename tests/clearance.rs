@@ -1,7 +1,7 @@
 //! The `clearance` heuristic (a persistence merge on the clearance field) on the thesis
 //! models and e1m1.
 
-use portalfind::complex::{CellComplex, Subdivision};
+use portalfind::complex::CellComplex;
 use portalfind::decimate::clearance::DEFAULT_RATIO;
 use portalfind::decimate::{Decimation, HeuristicKind, Partition, Settings, StopRule};
 
@@ -51,10 +51,10 @@ fn rotate_789(p: [f64; 3]) -> [f64; 3] {
 
 /// (rooms isolated, final cells, final portal pairs) at the default stop.
 fn at_default_stop(name: &str, f: impl Fn([f64; 3]) -> [f64; 3]) -> (usize, usize, usize, usize, usize) {
-    let tm = portalfind::thesis_models::by_name(name).unwrap();
+    let tm = portalfind::generate::thesis::by_name(name).unwrap();
     let verts: Vec<[f64; 3]> = tm.soup.vertices.iter().map(|&p| f(p)).collect();
     let m = portalfind::model::from_soup(tm.name, verts, tm.soup.polygons.clone()).unwrap();
-    let (cx, _, _) = portalfind::experiment::build_cells(&m, Subdivision::Delaunay).unwrap();
+    let cx = portalfind::pipeline::complex_of(&m).unwrap();
     let part = Decimation::run(&cx, &settings(StopRule::Threshold(DEFAULT_RATIO))).partition;
     let rooms: Vec<Vec<[f64; 3]>> = tm
         .truth
@@ -110,7 +110,7 @@ fn thesis_models_rooms_at_default_stop() {
 fn e1m1_table() {
     let m = portalfind::model::load_model(std::path::Path::new("models/quake/e1m1.obj")).unwrap();
     let t0 = std::time::Instant::now();
-    let (cx, _, _) = portalfind::experiment::build_cells(&m, Subdivision::Delaunay).unwrap();
+    let cx = portalfind::pipeline::complex_of(&m).unwrap();
     let t1 = std::time::Instant::now();
     for r in [1.5, 1.8, 2.0, 2.5, 3.0, 4.0] {
         let d = Decimation::run(&cx, &settings(StopRule::Threshold(r)));

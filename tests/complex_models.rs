@@ -2,8 +2,8 @@
 
 use portalfind::complex::CellComplex;
 use portalfind::delaunay::Tetrahedralization;
+use portalfind::generate::scenes::{self, Soup};
 use portalfind::model::{Model, from_soup, load_model};
-use portalfind::scenes::{self, Soup};
 
 fn build(s: &Soup) -> (Model, CellComplex) {
     let m = from_soup("test", s.vertices.clone(), s.polygons.clone()).expect("model");

@@ -127,10 +127,10 @@ fn one_experiment_writes_its_files_and_evaluation() {
     // The evaluation agrees with `portalfind locate` on result.json.
     let doc = portalfind::output::read_result(&dir).unwrap();
     let loc = portalfind::output::Locator::new(&doc);
-    let truth = portalfind::thesis_models::four_room_optimized().truth;
+    let truth = portalfind::generate::thesis::four_room_optimized().truth;
     for (room, re) in truth.rooms.iter().zip(t["per_room"].as_array().unwrap()) {
         for (s, c) in room.samples.iter().zip(re["sample_cells"].as_array().unwrap()) {
-            assert_eq!(loc.locate(s).map(u64::from), c.as_u64());
+            assert_eq!(loc.locate(s).map(|c| u64::from(c.0)), c.as_u64());
         }
     }
     let csv = std::fs::read_to_string(out.join("summary.csv")).unwrap();
@@ -315,8 +315,8 @@ fn transforms_invert_and_reproduce_the_rotated_caverns() {
     let q = experiment::invert_all(&ts, experiment::apply_all(&ts, p));
     assert!((0..3).all(|k| (p[k] - q[k]).abs() < 1e-12), "{q:?}");
     assert_eq!(experiment::length_factor(&ts), 2.5);
-    let a = portalfind::thesis_models::caverns();
-    let b = portalfind::thesis_models::caverns_rotated();
+    let a = portalfind::generate::thesis::caverns();
+    let b = portalfind::generate::thesis::caverns_rotated();
     let rot = Transform::RotateDeg([7.0, 8.0, 9.0]);
     assert_eq!(a.soup.vertices.len(), b.soup.vertices.len());
     for (p, q) in a.soup.vertices.iter().zip(&b.soup.vertices) {

@@ -710,8 +710,8 @@ pub fn match_portals(a: &[P3], b: &[P3], tol: f64) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::generate::scenes;
     use crate::model::from_soup;
-    use crate::scenes;
 
     fn model(s: &scenes::Soup) -> Model {
         from_soup("t", s.vertices.clone(), s.polygons.clone()).expect("model")

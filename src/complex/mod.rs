@@ -59,40 +59,7 @@ pub use validate::{ComplexError, ComplexValidation};
 use crate::geom::{ConvexPolygon, ConvexPolyhedron, Plane};
 use crate::ids::{CellId, PolygonId, TetId};
 use crate::tolerances::Tolerances;
-use serde::{Deserialize, Serialize};
-use std::fmt;
-use std::str::FromStr;
-
-/// How space is subdivided into cells.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Subdivision {
-    /// Delaunay tetrahedralization split by the model's polygons (thesis ch. 4).
-    #[default]
-    Delaunay,
-    /// A BSP tree of the model's polygons (the thesis's baseline, 4.3.3).
-    Bsp,
-}
-
-impl fmt::Display for Subdivision {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Subdivision::Delaunay => "delaunay",
-            Subdivision::Bsp => "bsp",
-        })
-    }
-}
-
-impl FromStr for Subdivision {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "delaunay" => Ok(Subdivision::Delaunay),
-            "bsp" => Ok(Subdivision::Bsp),
-            _ => Err(format!("unknown subdivision {s:?}; use delaunay or bsp")),
-        }
-    }
-}
+use serde::Serialize;
 
 /// The outside of the convex hull, as the second cell of a hull patch.
 pub const HULL: CellId = CellId(u32::MAX);

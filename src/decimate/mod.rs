@@ -66,10 +66,6 @@ mod parse;
 pub mod project;
 pub mod queue;
 
-// compat re-export, removed after merge
-#[doc(hidden)]
-pub use crate::generate::four_rooms as testscenes;
-
 pub use estimator::{AreaEstimator, Estimator};
 pub use heuristic::{Engine as HeuristicEngine, Heuristic, HeuristicKind, PairContext};
 pub use parse::{StopRuleError, UnknownName};

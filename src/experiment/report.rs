@@ -2,57 +2,13 @@
 //! figures beside ours, with the weight curves).
 
 use super::eval::{Evaluation, RotationCheck, Separation, SeparationDoorway};
-use super::{PortalSet, Report, RunOptions};
+use super::{ExperimentError, PortalSet, Report, RunError, RunOptions};
 use crate::model::write::write_atomic;
-use anyhow::{Context, Result};
+use serde::Serialize;
 use serde_json::Value;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-
-/// Columns of `summary.csv`.
-pub const COLUMNS: [&str; 40] = [
-    "experiment",
-    "status",
-    "model",
-    "transforms",
-    "subdivision",
-    "heuristic",
-    "estimator",
-    "stop",
-    "vertices",
-    "triangles",
-    "tetrahedra",
-    "cells_split",
-    "exterior_removed",
-    "active_cells",
-    "collapses",
-    "final_cells",
-    "final_portal_pairs",
-    "rooms",
-    "rooms_isolated",
-    "spike_cells",
-    "spike_volume_fraction",
-    "jump_step",
-    "jump_from_end",
-    "weight_max_before",
-    "weight_last_before",
-    "weight_at_jump",
-    "spike_cells_at_jump",
-    "rooms_isolated_at_jump",
-    "doorways",
-    "doorways_matched",
-    "separation_collapses",
-    "separating_portals",
-    "doorways_matched_at_separation",
-    "doorways_by_position_at_separation",
-    "rotation_ours_matched",
-    "rotation_theirs_matched",
-    "separating_compare_ours_matched",
-    "separating_compare_theirs_matched",
-    "seconds",
-    "definition",
-];
 
 /// A number with 4 significant digits, without trailing zeros after the point.
 pub fn sig(x: f64) -> String {
@@ -74,10 +30,6 @@ pub fn sig(x: f64) -> String {
     }
 }
 
-fn opt<T: ToString>(x: Option<T>) -> String {
-    x.map(|v| v.to_string()).unwrap_or_default()
-}
-
 fn transforms_text(e: &Evaluation) -> String {
     e.model
         .transforms
@@ -87,54 +39,112 @@ fn transforms_text(e: &Evaluation) -> String {
         .join(" ")
 }
 
-fn csv_row(e: &Evaluation) -> Vec<String> {
-    let t = e.truth.as_ref();
-    let j = t.and_then(|t| t.weight_jump.as_ref());
-    let r = first_check(e, PortalSet::Final);
-    let rs = first_check(e, PortalSet::Separating);
-    let sep = t.and_then(|t| t.separation.as_ref());
-    vec![
-        e.experiment.clone(),
-        "ok".into(),
-        e.model.source.clone(),
-        transforms_text(e),
-        e.settings.subdivision.clone(),
-        e.settings.heuristic.clone(),
-        e.settings.estimator.clone(),
-        e.settings.stop.clone(),
-        e.model.vertices.to_string(),
-        e.model.triangles.to_string(),
-        e.complex.tetrahedra.to_string(),
-        e.complex.cells_split.to_string(),
-        e.complex.exterior_cells_removed.to_string(),
-        e.complex.active_cells.to_string(),
-        e.decimation.collapses.to_string(),
-        e.decimation.final_cells.to_string(),
-        e.decimation.final_portal_pairs.to_string(),
-        opt(t.map(|t| t.rooms)),
-        opt(t.map(|t| t.rooms_isolated)),
-        opt(t.map(|t| t.spike_cells.count)),
-        opt(t.map(|t| sig(t.spike_cells.volume_fraction))),
-        opt(j.map(|j| j.step)),
-        opt(j.map(|j| j.from_end)),
-        opt(j.map(|j| sig(j.max_before))),
-        opt(j.map(|j| sig(j.last_before))),
-        opt(j.map(|j| sig(j.weight))),
-        opt(j.map(|j| j.spike_cells_before)),
-        opt(j.map(|j| j.rooms_isolated_before)),
-        opt(t.map(|t| t.doorways)),
-        opt(t.map(|t| t.doorways_matched)),
-        opt(sep.map(|s| s.collapses)),
-        opt(sep.map(|s| s.separating_portals)),
-        opt(sep.map(|s| s.doorways_matched)),
-        opt(sep.map(|s| s.doorways_matched_by_position)),
-        opt(r.map(|r| format!("{}/{}", r.ours_matched, r.ours_total))),
-        opt(r.map(|r| format!("{}/{}", r.theirs_matched, r.theirs_total))),
-        opt(rs.map(|r| format!("{}/{}", r.ours_matched, r.ours_total))),
-        opt(rs.map(|r| format!("{}/{}", r.theirs_matched, r.theirs_total))),
-        format!("{:.3}", e.timings.total_seconds),
-        e.definition.clone(),
-    ]
+/// One row of `summary.csv`; the header is the field names, in order.
+#[derive(Debug, Default, Serialize)]
+pub struct SummaryRow {
+    experiment: String,
+    status: String,
+    model: String,
+    transforms: String,
+    subdivision: String,
+    heuristic: String,
+    estimator: String,
+    stop: String,
+    vertices: Option<usize>,
+    triangles: Option<usize>,
+    tetrahedra: Option<usize>,
+    cells_split: Option<usize>,
+    exterior_removed: Option<usize>,
+    active_cells: Option<usize>,
+    collapses: Option<usize>,
+    final_cells: Option<usize>,
+    final_portal_pairs: Option<usize>,
+    rooms: Option<usize>,
+    rooms_isolated: Option<usize>,
+    spike_cells: Option<usize>,
+    spike_volume_fraction: Option<String>,
+    jump_step: Option<usize>,
+    jump_from_end: Option<usize>,
+    weight_max_before: Option<String>,
+    weight_last_before: Option<String>,
+    weight_at_jump: Option<String>,
+    spike_cells_at_jump: Option<usize>,
+    rooms_isolated_at_jump: Option<usize>,
+    doorways: Option<usize>,
+    doorways_matched: Option<usize>,
+    separation_collapses: Option<usize>,
+    separating_portals: Option<usize>,
+    doorways_matched_at_separation: Option<usize>,
+    doorways_by_position_at_separation: Option<usize>,
+    rotation_ours_matched: Option<String>,
+    rotation_theirs_matched: Option<String>,
+    separating_compare_ours_matched: Option<String>,
+    separating_compare_theirs_matched: Option<String>,
+    seconds: String,
+    definition: String,
+}
+
+impl SummaryRow {
+    /// The row of a finished experiment.
+    pub fn of(e: &Evaluation) -> Self {
+        let t = e.truth.as_ref();
+        let j = t.and_then(|t| t.weight_jump.as_ref());
+        let r = first_check(e, PortalSet::Final);
+        let rs = first_check(e, PortalSet::Separating);
+        let sep = t.and_then(|t| t.separation.as_ref());
+        SummaryRow {
+            experiment: e.experiment.clone(),
+            status: "ok".into(),
+            model: e.model.source.clone(),
+            transforms: transforms_text(e),
+            subdivision: e.settings.subdivision.clone(),
+            heuristic: e.settings.heuristic.clone(),
+            estimator: e.settings.estimator.clone(),
+            stop: e.settings.stop.clone(),
+            vertices: Some(e.model.vertices),
+            triangles: Some(e.model.triangles),
+            tetrahedra: Some(e.complex.tetrahedra),
+            cells_split: Some(e.complex.cells_split),
+            exterior_removed: Some(e.complex.exterior_cells_removed),
+            active_cells: Some(e.complex.active_cells),
+            collapses: Some(e.decimation.collapses),
+            final_cells: Some(e.decimation.final_cells),
+            final_portal_pairs: Some(e.decimation.final_portal_pairs),
+            rooms: t.map(|t| t.rooms),
+            rooms_isolated: t.map(|t| t.rooms_isolated),
+            spike_cells: t.map(|t| t.spike_cells.count),
+            spike_volume_fraction: t.map(|t| sig(t.spike_cells.volume_fraction)),
+            jump_step: j.map(|j| j.step),
+            jump_from_end: j.map(|j| j.from_end),
+            weight_max_before: j.map(|j| sig(j.max_before)),
+            weight_last_before: j.map(|j| sig(j.last_before)),
+            weight_at_jump: j.map(|j| sig(j.weight)),
+            spike_cells_at_jump: j.map(|j| j.spike_cells_before),
+            rooms_isolated_at_jump: j.map(|j| j.rooms_isolated_before),
+            doorways: t.map(|t| t.doorways),
+            doorways_matched: t.map(|t| t.doorways_matched),
+            separation_collapses: sep.map(|s| s.collapses),
+            separating_portals: sep.map(|s| s.separating_portals),
+            doorways_matched_at_separation: sep.map(|s| s.doorways_matched),
+            doorways_by_position_at_separation: sep.map(|s| s.doorways_matched_by_position),
+            rotation_ours_matched: r.map(|r| format!("{}/{}", r.ours_matched, r.ours_total)),
+            rotation_theirs_matched: r.map(|r| format!("{}/{}", r.theirs_matched, r.theirs_total)),
+            separating_compare_ours_matched: rs.map(|r| format!("{}/{}", r.ours_matched, r.ours_total)),
+            separating_compare_theirs_matched: rs.map(|r| format!("{}/{}", r.theirs_matched, r.theirs_total)),
+            seconds: format!("{:.3}", e.timings.total_seconds),
+            definition: e.definition.clone(),
+        }
+    }
+
+    /// The row of a failed experiment: its name, the error and the definition file.
+    pub fn failed(name: &str, error: &ExperimentError, file: &Path) -> Self {
+        SummaryRow {
+            experiment: name.to_string(),
+            status: format!("failed: {error}"),
+            definition: file.display().to_string(),
+            ..SummaryRow::default()
+        }
+    }
 }
 
 /// The first rotation check of this kind.
@@ -344,30 +354,49 @@ pub fn write_summary(
     order: &[(String, PathBuf)],
     opts: &RunOptions,
     t0: Instant,
-) -> Result<Vec<PathBuf>> {
+) -> Result<Vec<PathBuf>, RunError> {
     let out = &opts.out;
-    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
-    // summary.csv
+    std::fs::create_dir_all(out).map_err(|source| RunError::CreateDir {
+        dir: out.clone(),
+        source,
+    })?;
+    // summary.csv: the header comes from `SummaryRow`'s fields.
+    let csv_err = |e: csv::Error| RunError::SummaryCsv(Box::new(e));
     let mut w = csv::Writer::from_writer(Vec::new());
-    w.write_record(COLUMNS)?;
+    let mut rows = 0;
     for (name, file) in order {
         if let Some(o) = report.outcomes.iter().find(|o| o.def.name == *name && !name.is_empty()) {
-            w.write_record(csv_row(&o.eval))?;
+            w.serialize(SummaryRow::of(&o.eval)).map_err(csv_err)?;
+            rows += 1;
         } else if let Some(f) = report.failures.iter().find(|f| f.file() == file.as_path()) {
-            let mut row = vec![String::new(); COLUMNS.len()];
-            row[0] = name.clone();
-            row[1] = format!("failed: {f}");
-            row[COLUMNS.len() - 1] = file.display().to_string();
-            w.write_record(row)?;
+            w.serialize(SummaryRow::failed(name, f, file)).map_err(csv_err)?;
+            rows += 1;
         }
     }
-    let csv_bytes = w.into_inner().context("cannot write summary.csv")?;
+    if rows == 0 {
+        // No rows, so `serialize` wrote no header: take it from a default row.
+        w.serialize(SummaryRow::default()).map_err(csv_err)?;
+        let all = w
+            .into_inner()
+            .map_err(|e| RunError::SummaryCsv(Box::new(e.into_error())))?;
+        let end = all.iter().position(|&b| b == b'\n').map_or(all.len(), |i| i + 1);
+        w = csv::Writer::from_writer(all[..end].to_vec());
+    }
+    let csv_bytes = w
+        .into_inner()
+        .map_err(|e| RunError::SummaryCsv(Box::new(e.into_error())))?;
     let csv_path = out.join("summary.csv");
-    write_atomic(&csv_path, &csv_bytes).with_context(|| format!("cannot write {}", csv_path.display()))?;
+    write_atomic(&csv_path, &csv_bytes).map_err(|source| RunError::WriteFile {
+        path: csv_path.clone(),
+        source,
+    })?;
     // README.md
     let readme = readme_text(report, opts, t0.elapsed().as_secs_f64());
     let md_path = out.join("README.md");
-    write_atomic(&md_path, readme.as_bytes()).with_context(|| format!("cannot write {}", md_path.display()))?;
+    write_atomic(&md_path, readme.as_bytes()).map_err(|source| RunError::WriteFile {
+        path: md_path.clone(),
+        source,
+    })?;
     Ok(vec![csv_path, md_path])
 }
 
@@ -556,4 +585,85 @@ fn readme_text(report: &Report, opts: &RunOptions, seconds: f64) -> String {
         }
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The columns `summary.csv` has always had, in order.
+    const COLUMNS: [&str; 40] = [
+        "experiment",
+        "status",
+        "model",
+        "transforms",
+        "subdivision",
+        "heuristic",
+        "estimator",
+        "stop",
+        "vertices",
+        "triangles",
+        "tetrahedra",
+        "cells_split",
+        "exterior_removed",
+        "active_cells",
+        "collapses",
+        "final_cells",
+        "final_portal_pairs",
+        "rooms",
+        "rooms_isolated",
+        "spike_cells",
+        "spike_volume_fraction",
+        "jump_step",
+        "jump_from_end",
+        "weight_max_before",
+        "weight_last_before",
+        "weight_at_jump",
+        "spike_cells_at_jump",
+        "rooms_isolated_at_jump",
+        "doorways",
+        "doorways_matched",
+        "separation_collapses",
+        "separating_portals",
+        "doorways_matched_at_separation",
+        "doorways_by_position_at_separation",
+        "rotation_ours_matched",
+        "rotation_theirs_matched",
+        "separating_compare_ours_matched",
+        "separating_compare_theirs_matched",
+        "seconds",
+        "definition",
+    ];
+
+    #[test]
+    fn summary_header_comes_from_the_row_struct_and_failed_rows_are_mostly_empty() {
+        let err = ExperimentError::UnknownField {
+            file: PathBuf::from("experiments/x.json"),
+            field: "spin".into(),
+        };
+        let mut w = csv::Writer::from_writer(Vec::new());
+        w.serialize(SummaryRow::failed("x", &err, Path::new("experiments/x.json")))
+            .unwrap();
+        let text = String::from_utf8(w.into_inner().unwrap()).unwrap();
+        let mut lines = text.lines();
+        assert_eq!(lines.next().unwrap(), COLUMNS.join(","));
+        let row = lines.next().unwrap();
+        assert!(
+            row.starts_with("x,failed: experiments/x.json: unknown field `spin`"),
+            "{row}"
+        );
+        assert!(
+            row.ends_with(&format!("{},experiments/x.json", ",".repeat(37))),
+            "{row}"
+        );
+    }
+
+    #[test]
+    fn sig_keeps_four_significant_digits() {
+        assert_eq!(sig(0.0), "0");
+        assert_eq!(sig(1.23456), "1.235");
+        assert_eq!(sig(1234.6), "1235");
+        assert_eq!(sig(2.5), "2.5");
+        assert_eq!(sig(0.0001234), "1.234e-4");
+    }
 }

@@ -2,18 +2,30 @@
 //! `weight_curve.png` and the top view `cells.svg`; reading `result.json` back and point
 //! location in its cells.
 //!
-//! Every file is written to a temporary name in the output directory and renamed into
-//! place, so an error never leaves a partial file under a final name.
+//! Every file is written by an [`Exporter`] (the list is [`exporters`]; a new format is
+//! one new file plus one line there) to a temporary name in the output directory and
+//! renamed into place, so an error never leaves a partial file under a final name;
+//! [`write_outputs`] writes `result.json` last and removes what it wrote if any exporter
+//! fails.
 
+mod error;
+mod export;
+mod locate;
 mod plot;
+mod result_json;
 mod svg;
+mod weight_csv;
+
+pub use error::OutputError;
+pub use export::{ExportContext, Exporter, exporters, write_atomic};
+pub use locate::{Locator, read_points};
+pub use weight_csv::write_weight_csv;
 
 use crate::complex::{CellComplex, ComplexStats};
-use crate::decimate::{Decimation, DecimationStats, Estimator, HeuristicKind, QueueMode, StopReason, StopRule};
+use crate::decimate::{Decimation, DecimationStats, Estimator, HeuristicKind, QueueMode, StopReason};
 use crate::model::Model;
 use crate::predicates::P3;
 use crate::tolerances::Tolerances;
-use anyhow::{Context, Result, bail};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -21,8 +33,8 @@ use std::path::{Path, PathBuf};
 pub const SCHEMA: &str = "portalfind-result";
 /// Value of [`ResultDoc::schema_version`]; bumped on any incompatible change.
 pub const SCHEMA_VERSION: u32 = 1;
-/// File names written by [`write_outputs`].
-pub const FILES: [&str; 4] = ["result.json", "weight_curve.csv", "weight_curve.png", "cells.svg"];
+/// The file name of the result document (what `locate` and [`read_result`] read).
+pub const RESULT_FILE: &str = "result.json";
 
 /// `result.json`. See `docs/result-schema.md` for every field.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -87,9 +99,14 @@ pub struct SettingsDoc {
     pub stop: String,
     /// Queue variant (identical results).
     pub queue: QueueMode,
-    /// How the cells were made (`delaunay` or `bsp`; files without it are `delaunay`).
-    #[serde(default)]
-    pub subdivision: crate::complex::Subdivision,
+    /// How the cells were made (`delaunay` or `bsp`, the names of
+    /// `crate::pipeline::Subdivision`; files without it are `delaunay`).
+    #[serde(default = "default_subdivision")]
+    pub subdivision: String,
+}
+
+fn default_subdivision() -> String {
+    "delaunay".into()
 }
 
 /// One stage's time.
@@ -146,7 +163,7 @@ pub fn result_doc(
     cx: &CellComplex,
     dec: &Decimation,
     stages: &[(String, f64)],
-) -> Result<ResultDoc> {
+) -> Result<ResultDoc, OutputError> {
     let (lo, hi) = model.bbox();
     let area_min = cx.tol.area_abs();
     let cells = dec
@@ -203,14 +220,17 @@ pub fn result_doc(
             triangles: model.triangle_count(),
             bbox: [lo, hi],
             tolerances: model.tolerances,
-            report: serde_json::to_value(&model.report)?,
+            report: serde_json::to_value(&model.report).map_err(|source| OutputError::Serialize {
+                what: "the cleaning report",
+                source,
+            })?,
         },
         settings: SettingsDoc {
             heuristic: dec.settings.heuristic,
             estimator: dec.settings.estimator,
             stop: dec.settings.stop.to_string(),
             queue: dec.settings.queue,
-            subdivision: crate::complex::Subdivision::Delaunay,
+            subdivision: default_subdivision(),
         },
         stages: stages
             .iter()
@@ -219,67 +239,15 @@ pub fn result_doc(
                 seconds: *t,
             })
             .collect(),
-        complex: serde_json::to_value(stats)?,
+        complex: serde_json::to_value(stats).map_err(|source| OutputError::Serialize {
+            what: "the complex statistics",
+            source,
+        })?,
         subdivision_stats: serde_json::Value::Null,
         decimation: dec.stats.clone(),
         stop_reason: dec.stop,
         cells,
         portals,
-    })
-}
-
-/// Writes `path`'s content through a temporary file in the same directory (named with the
-/// same extension, as plotters picks the image format from it) and renames it into place.
-fn write_atomic(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
-    let dir = path.parent().unwrap_or(Path::new("."));
-    let name = path
-        .file_name()
-        .context("output path has no file name")?
-        .to_string_lossy();
-    let tmp = dir.join(format!(".{}.tmp-{}.{}", name, std::process::id(), ext(path)));
-    let r = write(&tmp).and_then(|()| {
-        std::fs::rename(&tmp, path).with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))
-    });
-    if r.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    r
-}
-
-fn ext(p: &Path) -> String {
-    p.extension()
-        .map(|e| e.to_string_lossy().into_owned())
-        .unwrap_or_default()
-}
-
-/// Rows of `weight_curve.csv`.
-pub fn write_weight_csv(path: &Path, dec: &Decimation) -> Result<()> {
-    write_atomic(path, |tmp| {
-        let mut w = csv::Writer::from_path(tmp)?;
-        w.write_record([
-            "step",
-            "weight",
-            "cells_remaining",
-            "cell_a",
-            "cell_b",
-            "portal_area",
-            "projected_a",
-            "projected_b",
-        ])?;
-        for (i, s) in dec.steps.iter().enumerate() {
-            w.write_record([
-                (i + 1).to_string(),
-                s.weight.to_string(),
-                s.cells_remaining.to_string(),
-                s.a.0.to_string(),
-                s.b.0.to_string(),
-                s.portal_area.to_string(),
-                s.projected[0].to_string(),
-                s.projected[1].to_string(),
-            ])?;
-        }
-        w.flush()?;
-        Ok(())
     })
 }
 
@@ -311,7 +279,7 @@ pub fn snapshot(
     cx: &CellComplex,
     dec: &Decimation,
     n: usize,
-) -> Result<(Snapshot, ResultDoc)> {
+) -> Result<(Snapshot, ResultDoc), OutputError> {
     let initial = dec.stats.initial_cells;
     let last = dec.steps.last().map_or(initial, |s| s.cells_remaining);
     let k = if n == initial {
@@ -320,12 +288,9 @@ pub fn snapshot(
         dec.steps.iter().position(|s| s.cells_remaining == n).map(|i| i + 1)
     };
     let Some(k) = k else {
-        bail!(
-            "snapshot at {n} cells: the run went from {initial} cells down to {last}; \
-             choose counts in that range (lower the stop rule to reach fewer cells)"
-        );
+        return Err(OutputError::SnapshotCount { n, initial, last });
     };
-    let partition = Decimation::replay(cx, &dec.steps[..k]).context("replaying the recorded steps")?;
+    let partition = Decimation::replay(cx, &dec.steps[..k]).map_err(OutputError::Replay)?;
     let state = Decimation {
         settings: dec.settings,
         steps: Vec::new(),
@@ -347,175 +312,77 @@ pub fn snapshot(
     Ok((snap, doc))
 }
 
-/// Writes all four outputs into `dir` (created if missing); returns their paths.
-pub fn write_outputs(dir: &Path, model: &Model, doc: &ResultDoc, dec: &Decimation) -> Result<Vec<PathBuf>> {
+/// Writes every output of [`exporters`] into `dir` (created if missing) without
+/// snapshots; returns the paths written.
+pub fn write_outputs(
+    dir: &Path,
+    model: &Model,
+    doc: &ResultDoc,
+    dec: &Decimation,
+) -> Result<Vec<PathBuf>, OutputError> {
     write_outputs_with_snapshots(dir, model, doc, dec, &[])
 }
 
 /// As [`write_outputs`], plus the top view `cells_<N>.svg` of each snapshot (from
-/// [`snapshot`]); returns the paths written.
+/// [`snapshot`]); returns the paths written, in the order of [`exporters`].
+///
+/// Each file goes through a temporary name; the exporters that write what `locate` reads
+/// ([`Exporter::last`]: `result.json`) run last, and if any exporter fails, the files this
+/// call already wrote are removed, so a failed run never leaves a partial set behind.
 pub fn write_outputs_with_snapshots(
     dir: &Path,
     model: &Model,
     doc: &ResultDoc,
     dec: &Decimation,
     snapshots: &[(Snapshot, ResultDoc)],
-) -> Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    let mut paths: Vec<PathBuf> = FILES.iter().map(|f| dir.join(f)).collect();
-    // Each file goes through a temporary name; `result.json` (what `locate` reads) comes
-    // last, and if any file fails, the ones this call already wrote are removed, so a
-    // failed run never leaves a partial set behind.
-    let mut written: Vec<PathBuf> = Vec::new();
-    let result = (|| -> Result<()> {
-        for (snap, sdoc) in snapshots {
-            let path = dir.join(&snap.file);
-            let svg = svg::cells_svg(model, sdoc);
-            write_atomic(&path, |tmp| Ok(std::fs::write(tmp, svg)?))
-                .with_context(|| format!("writing {}", snap.file))?;
-            written.push(path);
+) -> Result<Vec<PathBuf>, OutputError> {
+    std::fs::create_dir_all(dir).map_err(|source| OutputError::CreateDir {
+        dir: dir.to_path_buf(),
+        source,
+    })?;
+    let ctx = ExportContext {
+        dir,
+        model,
+        doc,
+        dec,
+        snapshots,
+    };
+    let list = exporters();
+    let mut written: Vec<Option<Vec<PathBuf>>> = vec![None; list.len()];
+    let order = (0..list.len())
+        .filter(|&i| !list[i].last())
+        .chain((0..list.len()).filter(|&i| list[i].last()));
+    for i in order {
+        match list[i].write(&ctx) {
+            Ok(paths) => written[i] = Some(paths),
+            Err(e) => {
+                for p in written.iter().flatten().flatten() {
+                    let _ = std::fs::remove_file(p);
+                }
+                return Err(e);
+            }
         }
-        write_weight_csv(&paths[1], dec).context("writing weight_curve.csv")?;
-        written.push(paths[1].clone());
-        let threshold = match dec.settings.stop {
-            StopRule::Threshold(w) => Some(w),
-            _ => None,
-        };
-        let title = format!(
-            "{}: {} / {}, {} collapses",
-            model.name,
-            dec.settings.heuristic,
-            dec.settings.estimator,
-            dec.steps.len()
-        );
-        write_atomic(&paths[2], |tmp| plot::weight_curve(tmp, &dec.steps, &title, threshold))
-            .context("writing weight_curve.png")?;
-        written.push(paths[2].clone());
-        let svg = svg::cells_svg(model, doc);
-        write_atomic(&paths[3], |tmp| Ok(std::fs::write(tmp, svg)?)).context("writing cells.svg")?;
-        written.push(paths[3].clone());
-        write_atomic(&paths[0], |tmp| {
-            let f = std::io::BufWriter::new(std::fs::File::create(tmp)?);
-            serde_json::to_writer(f, doc)?;
-            Ok(())
-        })
-        .context("writing result.json")?;
-        Ok(())
-    })();
-    if let Err(e) = result {
-        for p in &written {
-            let _ = std::fs::remove_file(p);
-        }
-        return Err(e);
     }
-    paths.extend(snapshots.iter().map(|(s, _)| dir.join(&s.file)));
-    Ok(paths)
+    Ok(written.into_iter().flatten().flatten().collect())
 }
 
 /// Reads `DIR/result.json` and checks its schema name and version.
-pub fn read_result(dir: &Path) -> Result<ResultDoc> {
-    let p = dir.join(FILES[0]);
-    let text = std::fs::read_to_string(&p).with_context(|| format!("cannot read {}", p.display()))?;
-    let doc: ResultDoc = serde_json::from_str(&text).with_context(|| format!("bad {}", p.display()))?;
+pub fn read_result(dir: &Path) -> Result<ResultDoc, OutputError> {
+    let p = dir.join(RESULT_FILE);
+    let text = std::fs::read_to_string(&p).map_err(|source| OutputError::Read {
+        path: p.clone(),
+        source,
+    })?;
+    let doc: ResultDoc = serde_json::from_str(&text).map_err(|source| OutputError::Parse {
+        path: p.clone(),
+        source,
+    })?;
     if doc.schema != SCHEMA || doc.schema_version != SCHEMA_VERSION {
-        bail!(
-            "{} has schema {} v{}, expected {SCHEMA} v{SCHEMA_VERSION}",
-            p.display(),
-            doc.schema,
-            doc.schema_version
-        );
+        return Err(OutputError::Schema {
+            path: p,
+            schema: doc.schema,
+            version: doc.schema_version,
+        });
     }
     Ok(doc)
-}
-
-/// Point location in the final cells of a [`ResultDoc`].
-pub struct Locator<'a> {
-    doc: &'a ResultDoc,
-    /// (cell index, piece index, aabb lo, aabb hi), by cell id order.
-    boxes: Vec<(usize, usize, P3, P3)>,
-    slack: f64,
-}
-
-impl<'a> Locator<'a> {
-    /// Prepares the pieces' bounding boxes. A point counts as inside a piece when it is
-    /// within the plane tolerance (`tolerances.plane_abs()`) of the inside of every plane.
-    pub fn new(doc: &'a ResultDoc) -> Self {
-        let mut boxes = Vec::new();
-        for (ci, c) in doc.cells.iter().enumerate() {
-            for (pi, p) in c.pieces.iter().enumerate() {
-                let mut lo = [f64::INFINITY; 3];
-                let mut hi = [f64::NEG_INFINITY; 3];
-                for v in &p.vertices {
-                    for k in 0..3 {
-                        lo[k] = lo[k].min(v[k]);
-                        hi[k] = hi[k].max(v[k]);
-                    }
-                }
-                boxes.push((ci, pi, lo, hi));
-            }
-        }
-        Locator {
-            doc,
-            boxes,
-            slack: doc.model.tolerances.plane_abs(),
-        }
-    }
-
-    /// The id of the final cell containing `p` (the lowest id if it lies on a shared
-    /// boundary), or `None` (outside every cell: in a wall, outside the model, or in a
-    /// sliver gap).
-    pub fn locate(&self, p: &P3) -> Option<u32> {
-        let s = self.slack;
-        for &(ci, pi, lo, hi) in &self.boxes {
-            if (0..3).any(|k| p[k] < lo[k] - s || p[k] > hi[k] + s) {
-                continue;
-            }
-            let piece = &self.doc.cells[ci].pieces[pi];
-            if piece
-                .planes
-                .iter()
-                .all(|q| q[0] * p[0] + q[1] * p[1] + q[2] * p[2] - q[3] <= s)
-            {
-                return Some(self.doc.cells[ci].id);
-            }
-        }
-        None
-    }
-}
-
-/// Parses `x,y,z` rows (blank lines and lines starting with `#` skipped; a first row that
-/// does not parse as numbers is taken as a header).
-pub fn read_points(path: &Path) -> Result<Vec<P3>> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let mut out = Vec::new();
-    let mut header_allowed = true;
-    for (i, line) in text.lines().enumerate() {
-        let t = line.trim();
-        if t.is_empty() || t.starts_with('#') {
-            continue;
-        }
-        let f: Vec<&str> = t.split(',').map(|s| s.trim()).collect();
-        let nums: Option<Vec<f64>> = f.iter().map(|s| s.parse::<f64>().ok()).collect();
-        let first = std::mem::replace(&mut header_allowed, false);
-        match nums {
-            Some(v) if v.len() == 3 && v.iter().all(|x| x.is_finite()) => out.push([v[0], v[1], v[2]]),
-            // A header row (names such as `x,y,z`), not a malformed first point.
-            None if first && f.len() == 3 && f.iter().all(|s| s.starts_with(|c: char| c.is_ascii_alphabetic())) => {
-                continue;
-            }
-            Some(v) if v.len() == 3 => bail!(
-                "{}:{}: coordinates must be finite numbers, got {t:?}",
-                path.display(),
-                i + 1
-            ),
-            _ => bail!("{}:{}: expected x,y,z, got {t:?}", path.display(), i + 1),
-        }
-    }
-    if out.is_empty() {
-        bail!(
-            "{}: no points (expected x,y,z rows, optionally after a header row)",
-            path.display()
-        );
-    }
-    Ok(out)
 }

@@ -4,8 +4,8 @@
 //! so a TrueType font is loaded from `PORTALFIND_FONT` or a few usual places (DejaVu Sans,
 //! Liberation Sans, Arial). Without one, the chart is drawn without captions and labels.
 
+use super::OutputError;
 use crate::decimate::Step;
-use anyhow::{Result, anyhow};
 use plotters::prelude::*;
 use std::path::Path;
 use std::sync::OnceLock;
@@ -37,12 +37,12 @@ fn font_available() -> bool {
     })
 }
 
-fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
-    anyhow!("plotting failed: {e:?}")
+fn err<E: std::fmt::Debug>(e: E) -> OutputError {
+    OutputError::Plot(format!("{e:?}"))
 }
 
 /// Draws the curve into `path` (PNG, 1000 × 600).
-pub fn weight_curve(path: &Path, steps: &[Step], title: &str, threshold: Option<f64>) -> Result<()> {
+pub fn weight_curve(path: &Path, steps: &[Step], title: &str, threshold: Option<f64>) -> Result<(), OutputError> {
     let text = font_available();
     let root = BitMapBackend::new(path, (1000, 600)).into_drawing_area();
     root.fill(&WHITE).map_err(err)?;
@@ -113,4 +113,41 @@ pub fn weight_curve(path: &Path, steps: &[Step], title: &str, threshold: Option<
     }
     root.present().map_err(err)?;
     Ok(())
+}
+
+const FILE: &str = "weight_curve.png";
+
+/// Writes `weight_curve.png`.
+pub struct WeightPng;
+
+impl super::Exporter for WeightPng {
+    fn name(&self) -> &'static str {
+        "weight curve (PNG)"
+    }
+
+    fn files(&self, _: &super::ExportContext<'_>) -> Vec<String> {
+        vec![FILE.into()]
+    }
+
+    fn owns(&self, file_name: &str) -> bool {
+        file_name == FILE
+    }
+
+    fn write(&self, ctx: &super::ExportContext<'_>) -> Result<Vec<std::path::PathBuf>, OutputError> {
+        let dec = ctx.dec;
+        let threshold = match dec.settings.stop {
+            crate::decimate::StopRule::Threshold(w) => Some(w),
+            _ => None,
+        };
+        let title = format!(
+            "{}: {} / {}, {} collapses",
+            ctx.model.name,
+            dec.settings.heuristic,
+            dec.settings.estimator,
+            dec.steps.len()
+        );
+        let path = ctx.dir.join(FILE);
+        super::write_atomic(&path, |tmp| weight_curve(tmp, &dec.steps, &title, threshold))?;
+        Ok(vec![path])
+    }
 }

@@ -6,6 +6,7 @@ use super::ResultDoc;
 use crate::ids::PolygonId;
 use crate::model::Model;
 use std::fmt::Write;
+use std::path::PathBuf;
 
 const WIDTH: f64 = 1200.0;
 const MARGIN: f64 = 20.0;
@@ -93,4 +94,63 @@ pub fn cells_svg(model: &Model, doc: &ResultDoc) -> String {
 
 fn escape(s: &str) -> String {
     s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
+}
+
+const FILE: &str = "cells.svg";
+
+/// Writes the top view of the final cells, `cells.svg`.
+pub struct CellsSvg;
+
+impl super::Exporter for CellsSvg {
+    fn name(&self) -> &'static str {
+        "top view"
+    }
+
+    fn files(&self, _: &super::ExportContext<'_>) -> Vec<String> {
+        vec![FILE.into()]
+    }
+
+    fn owns(&self, file_name: &str) -> bool {
+        file_name == FILE
+    }
+
+    fn write(&self, ctx: &super::ExportContext<'_>) -> Result<Vec<PathBuf>, super::OutputError> {
+        let path = ctx.dir.join(FILE);
+        let svg = cells_svg(ctx.model, ctx.doc);
+        super::write_atomic(&path, |tmp| std::fs::write(tmp, svg))?;
+        Ok(vec![path])
+    }
+}
+
+/// Writes the top view of each snapshot, `cells_<N>.svg`.
+pub struct Snapshots;
+
+impl super::Exporter for Snapshots {
+    fn name(&self) -> &'static str {
+        "snapshot top views"
+    }
+
+    fn files(&self, ctx: &super::ExportContext<'_>) -> Vec<String> {
+        ctx.snapshots.iter().map(|(s, _)| s.file.clone()).collect()
+    }
+
+    fn owns(&self, file_name: &str) -> bool {
+        file_name.starts_with("cells_") && file_name.ends_with(".svg")
+    }
+
+    fn write(&self, ctx: &super::ExportContext<'_>) -> Result<Vec<PathBuf>, super::OutputError> {
+        let mut written = Vec::new();
+        for (snap, sdoc) in ctx.snapshots {
+            let path = ctx.dir.join(&snap.file);
+            let svg = cells_svg(ctx.model, sdoc);
+            if let Err(e) = super::write_atomic(&path, |tmp| std::fs::write(tmp, svg)) {
+                for p in &written {
+                    let _ = std::fs::remove_file(p);
+                }
+                return Err(e);
+            }
+            written.push(path);
+        }
+        Ok(written)
+    }
 }

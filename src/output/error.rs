@@ -1,0 +1,116 @@
+//! [`OutputError`]: why an output could not be written or read. Each names the file.
+
+use std::path::PathBuf;
+
+/// Why an output could not be written or read back. Each message names the file (or the
+/// run's counts) and, where there is one, the fix.
+#[derive(Debug, thiserror::Error)]
+pub enum OutputError {
+    /// The output directory cannot be created.
+    #[error("cannot create {}", dir.display())]
+    CreateDir {
+        /// The directory.
+        dir: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// An exporter failed to write one of its files.
+    #[error("writing {file}")]
+    Write {
+        /// The file name.
+        file: String,
+        /// Why.
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
+    /// A temporary file cannot be renamed into place.
+    #[error("cannot rename {} to {}", from.display(), to.display())]
+    Rename {
+        /// The temporary file.
+        from: PathBuf,
+        /// The final name.
+        to: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// An output path without a file name.
+    #[error("output path {} has no file name", path.display())]
+    NoFileName {
+        /// The path.
+        path: PathBuf,
+    },
+    /// Plotting failed (plotters' error, as text).
+    #[error("plotting failed: {0}")]
+    Plot(String),
+    /// Statistics cannot be serialized.
+    #[error("cannot serialize {what}")]
+    Serialize {
+        /// What.
+        what: &'static str,
+        /// Why.
+        #[source]
+        source: serde_json::Error,
+    },
+    /// A snapshot at a cell count the run never passed through.
+    #[error(
+        "snapshot at {n} cells: the run went from {initial} cells down to {last}; \
+         choose counts in that range (lower the stop rule to reach fewer cells)"
+    )]
+    SnapshotCount {
+        /// The count asked for.
+        n: usize,
+        /// Cells at the start of the run.
+        initial: usize,
+        /// Cells at its end.
+        last: usize,
+    },
+    /// The recorded steps do not replay.
+    #[error("replaying the recorded steps")]
+    Replay(#[source] crate::decimate::ReplayError),
+    /// A file cannot be read.
+    #[error("cannot read {}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// `result.json` is not a valid result document.
+    #[error("bad {}", path.display())]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: serde_json::Error,
+    },
+    /// `result.json` of another schema or version.
+    #[error("{} has schema {schema} v{version}, expected {} v{}", path.display(), super::SCHEMA, super::SCHEMA_VERSION)]
+    Schema {
+        /// The file.
+        path: PathBuf,
+        /// Its schema name.
+        schema: String,
+        /// Its version.
+        version: u32,
+    },
+    /// A bad row of a points file (`locate`).
+    #[error("{}:{line}: {message}", path.display())]
+    Points {
+        /// The file.
+        path: PathBuf,
+        /// The line (1-based).
+        line: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// A points file without points.
+    #[error("{}: no points (expected x,y,z rows, optionally after a header row)", path.display())]
+    NoPoints {
+        /// The file.
+        path: PathBuf,
+    },
+}

@@ -1,0 +1,384 @@
+//! The one pipeline: load → subdivide (Delaunay or BSP) → cell complex → decimation →
+//! result document. `portalfind run`, `portalfind complex` and the experiment runner all
+//! call it; the binary adds only progress bars and printing.
+//!
+//! - [`load`]: read and clean a model file (timed).
+//! - [`build_cells`]: the one dispatch on the [`Subdivision`]: the cell complex with the
+//!   stages before its own timings and typed [`SubdivisionStats`].
+//! - [`run_model`]: cells, decimation and the [`ResultDoc`] for a model already in memory;
+//!   [`run`] loads the file first.
+//!
+//! Progress is reported through `&mut dyn FnMut(Progress)`: the [`Stage`] and how much of
+//! it is done. Writing the outputs is [`crate::output`]'s business ([`crate::output::write_outputs`]).
+//!
+//! # Example
+//!
+//! ```
+//! use portalfind::decimate::StopRule;
+//! use portalfind::pipeline::{self, Settings};
+//!
+//! // Two box rooms joined by a door, as a `.mesh` file.
+//! let s = portalfind::generate::scenes::two_rooms();
+//! let dir = std::env::temp_dir().join(format!("portalfind-doctest-{}", std::process::id()));
+//! std::fs::create_dir_all(&dir).unwrap();
+//! let path = dir.join("two_rooms.mesh");
+//! std::fs::write(&path, portalfind::model::write::mesh_text(&s.vertices, &s.polygons)).unwrap();
+//!
+//! let mut settings = Settings::default();
+//! settings.decimation.stop = StopRule::Cells(2);
+//! let (model, run) = pipeline::run(&path, &settings, &mut |_progress| {}).unwrap();
+//! assert_eq!(model.polygons.len(), run.doc.model.polygons);
+//! assert_eq!(run.doc.cells.len(), 2); // one cell per room
+//! assert_eq!(run.doc.portals.len(), 1); // the door
+//! assert_eq!(run.stages[0].0, "load model");
+//! std::fs::remove_dir_all(&dir).unwrap();
+//! ```
+
+use crate::bsp::{BspSettings, BspStats};
+use crate::complex::CellComplex;
+use crate::decimate::Decimation;
+use crate::delaunay::{DelaunayError, Tetrahedralization};
+use crate::model::{Model, ModelError};
+use crate::output::{self, OutputError, ResultDoc};
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::path::Path;
+use std::str::FromStr;
+use std::time::Instant;
+
+/// The seed of the Delaunay insertion order (the result does not depend on it, only the
+/// running time does).
+pub const DEFAULT_SEED: u64 = 0x5eed;
+
+/// How space is subdivided into cells.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Subdivision {
+    /// Delaunay tetrahedralization split by the model's polygons (thesis ch. 4).
+    #[default]
+    Delaunay,
+    /// A BSP tree of the model's polygons (the thesis's baseline, 4.3.3).
+    Bsp,
+}
+
+impl Subdivision {
+    /// Every subdivision, in the order of [`Subdivision::NAMES`].
+    pub const ALL: [Subdivision; 2] = [Subdivision::Delaunay, Subdivision::Bsp];
+    /// The names that [`FromStr`] accepts.
+    pub const NAMES: [&'static str; 2] = ["delaunay", "bsp"];
+
+    /// The name (`delaunay`, `bsp`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Subdivision::Delaunay => "delaunay",
+            Subdivision::Bsp => "bsp",
+        }
+    }
+}
+
+impl fmt::Display for Subdivision {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A subdivision name that is not one of [`Subdivision::NAMES`].
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("unknown subdivision {name:?}; use delaunay or bsp")]
+pub struct UnknownSubdivision {
+    /// The name given.
+    pub name: String,
+}
+
+impl FromStr for Subdivision {
+    type Err = UnknownSubdivision;
+    fn from_str(s: &str) -> Result<Self, UnknownSubdivision> {
+        Subdivision::ALL
+            .into_iter()
+            .find(|d| d.name() == s)
+            .ok_or_else(|| UnknownSubdivision { name: s.to_string() })
+    }
+}
+
+/// How cells are made: the subdivision and the settings of each kind.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CellSettings {
+    /// Delaunay or BSP.
+    pub subdivision: Subdivision,
+    /// Seed of the Delaunay insertion order ([`DEFAULT_SEED`]).
+    pub seed: u64,
+    /// BSP plane choice.
+    pub bsp: BspSettings,
+}
+
+impl Default for CellSettings {
+    fn default() -> Self {
+        CellSettings {
+            subdivision: Subdivision::Delaunay,
+            seed: DEFAULT_SEED,
+            bsp: BspSettings::default(),
+        }
+    }
+}
+
+impl CellSettings {
+    /// The default settings of `subdivision`.
+    pub fn of(subdivision: Subdivision) -> Self {
+        CellSettings {
+            subdivision,
+            ..CellSettings::default()
+        }
+    }
+}
+
+/// Settings of a whole run.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Settings {
+    /// How cells are made.
+    pub cells: CellSettings,
+    /// The decimation (heuristic, estimator, stop rule, queue).
+    pub decimation: crate::decimate::Settings,
+}
+
+/// A stage of the pipeline, as reported to the progress callback.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stage {
+    /// Inserting points into the tetrahedralization (`done`/`total` points).
+    Tetrahedralize,
+    /// A stage of [`CellComplex::build_with_progress`], by its name.
+    Complex(&'static str),
+    /// Collapsing cell pairs: `done` collapses, `total` = collapses + cells left, with
+    /// `cells` left.
+    Decimate {
+        /// Cells left.
+        cells: usize,
+    },
+}
+
+impl Stage {
+    /// A short name for progress bars.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Stage::Tetrahedralize => "tetrahedralizing",
+            Stage::Complex(s) => s,
+            Stage::Decimate { .. } => "decimating",
+        }
+    }
+}
+
+/// A progress report: the stage and how far it is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Progress {
+    /// The stage.
+    pub stage: Stage,
+    /// Work done.
+    pub done: usize,
+    /// Work in total (may grow).
+    pub total: usize,
+}
+
+/// Statistics of the Delaunay subdivision.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct DelaunayStats {
+    /// Finite tetrahedra.
+    pub tetrahedra: usize,
+    /// Convex hull faces.
+    pub hull_faces: usize,
+    /// Time of the tetrahedralization.
+    pub tetrahedralization_seconds: f64,
+}
+
+/// Statistics of the subdivision itself (what `result.json` calls `subdivision_stats`).
+#[derive(Clone, Debug)]
+pub enum SubdivisionStats {
+    /// Tetrahedralization counts.
+    Delaunay(DelaunayStats),
+    /// BSP counts.
+    Bsp(BspStats),
+}
+
+impl SubdivisionStats {
+    /// As JSON: an object with the fields of [`DelaunayStats`] or [`BspStats`].
+    pub fn to_json(&self) -> serde_json::Value {
+        let v = match self {
+            SubdivisionStats::Delaunay(s) => serde_json::to_value(s),
+            SubdivisionStats::Bsp(s) => serde_json::to_value(s),
+        };
+        // Plain structs of numbers always serialize.
+        v.unwrap_or(serde_json::Value::Null)
+    }
+}
+
+/// Why the pipeline failed. Each names the model and what to do.
+#[derive(Debug, thiserror::Error)]
+pub enum PipelineError {
+    /// The model file cannot be loaded.
+    #[error("cannot load the model")]
+    Load(#[source] Box<ModelError>),
+    /// The tetrahedralization cannot be built.
+    #[error("cannot tetrahedralize {model}")]
+    Tetrahedralize {
+        /// The model's path or name.
+        model: String,
+        /// Why.
+        #[source]
+        source: DelaunayError,
+    },
+    /// The result document cannot be assembled.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+}
+
+/// The cell complex of a model and how it was made ([`build_cells`]).
+pub struct Cells {
+    /// The complex.
+    pub cx: CellComplex,
+    /// Statistics of the subdivision.
+    pub stats: SubdivisionStats,
+    /// Timed stages that precede the complex's own timings (`cx.stats.timings`).
+    pub stages: Vec<(String, f64)>,
+}
+
+/// Loads and cleans a model file; returns it with the seconds it took.
+pub fn load(path: &Path) -> Result<(Model, f64), PipelineError> {
+    let t0 = Instant::now();
+    let m = crate::model::load_model(path).map_err(|e| PipelineError::Load(Box::new(e)))?;
+    Ok((m, t0.elapsed().as_secs_f64()))
+}
+
+/// The Delaunay cell complex of `model` with the default settings, no progress reports
+/// (for tests, benchmarks and the suite).
+pub fn complex_of(model: &Model) -> Result<CellComplex, PipelineError> {
+    let label = std::path::PathBuf::from(&model.name);
+    Ok(build_cells(model, &label, &CellSettings::default(), &mut |_| {})?.cx)
+}
+
+/// The one dispatch on the subdivision: the cell complex of `model`. `label` names the
+/// model in errors (its path).
+pub fn build_cells(
+    model: &Model,
+    label: &Path,
+    settings: &CellSettings,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Cells, PipelineError> {
+    match settings.subdivision {
+        Subdivision::Delaunay => {
+            let t0 = Instant::now();
+            let t =
+                Tetrahedralization::build_with_progress(&model.vertices, settings.seed, true, &mut |done, total| {
+                    progress(Progress {
+                        stage: Stage::Tetrahedralize,
+                        done,
+                        total,
+                    })
+                })
+                .map_err(|source| PipelineError::Tetrahedralize {
+                    model: label.display().to_string(),
+                    source,
+                })?;
+            let tt = t0.elapsed().as_secs_f64();
+            let cx = CellComplex::build_with_progress(model, &t, &mut |s, done, total| {
+                progress(Progress {
+                    stage: Stage::Complex(s),
+                    done,
+                    total,
+                })
+            });
+            Ok(Cells {
+                cx,
+                stats: SubdivisionStats::Delaunay(DelaunayStats {
+                    tetrahedra: t.num_tets(),
+                    hull_faces: t.num_hull_faces(),
+                    tetrahedralization_seconds: tt,
+                }),
+                stages: vec![("delaunay tetrahedralization".into(), tt)],
+            })
+        }
+        Subdivision::Bsp => {
+            let (cx, stats) = crate::bsp::build_complex_with(model, &settings.bsp);
+            Ok(Cells {
+                cx,
+                stats: SubdivisionStats::Bsp(stats),
+                stages: Vec::new(),
+            })
+        }
+    }
+}
+
+/// A finished run.
+pub struct Run {
+    /// The cell complex.
+    pub cx: CellComplex,
+    /// Statistics of the subdivision.
+    pub subdivision_stats: SubdivisionStats,
+    /// The decimation.
+    pub dec: Decimation,
+    /// Stage timings in order (those passed in first), as in `result.json`.
+    pub stages: Vec<(String, f64)>,
+    /// The `result.json` document.
+    pub doc: ResultDoc,
+}
+
+/// Cells, decimation and result document for a model already loaded. `model_path` is
+/// recorded in the document (and names the model in errors); `stages` are earlier timed
+/// stages (loading).
+pub fn run_model(
+    model: &Model,
+    model_path: &Path,
+    settings: &Settings,
+    mut stages: Vec<(String, f64)>,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Run, PipelineError> {
+    let cells = build_cells(model, model_path, &settings.cells, progress)?;
+    stages.extend(cells.stages);
+    stages.extend(cells.cx.stats.timings.iter().cloned());
+    let dec = Decimation::run_with_progress(&cells.cx, &settings.decimation, &mut |steps, left| {
+        progress(Progress {
+            stage: Stage::Decimate { cells: left },
+            done: steps,
+            total: steps + left,
+        })
+    });
+    stages.push(("decimation: initial weights".into(), dec.stats.init_seconds));
+    stages.push(("decimation: collapses".into(), dec.stats.collapse_seconds));
+    let mut doc = output::result_doc(model, model_path, &cells.cx, &dec, &stages)?;
+    doc.settings.subdivision = settings.cells.subdivision.to_string();
+    doc.subdivision_stats = cells.stats.to_json();
+    Ok(Run {
+        cx: cells.cx,
+        subdivision_stats: cells.stats,
+        dec,
+        stages,
+        doc,
+    })
+}
+
+/// Loads `path` and runs the whole pipeline: the model and the [`Run`]. The first stage
+/// is `load model`.
+pub fn run(
+    path: &Path,
+    settings: &Settings,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<(Model, Run), PipelineError> {
+    let (m, secs) = load(path)?;
+    let r = run_model(&m, path, settings, vec![("load model".into(), secs)], progress)?;
+    Ok((m, r))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn subdivision_names_round_trip_and_errors_list_them() {
+        for d in Subdivision::ALL {
+            assert_eq!(d.to_string().parse::<Subdivision>(), Ok(d));
+            assert_eq!(serde_json::to_string(&d).unwrap(), format!("\"{d}\""));
+        }
+        let e = "octree".parse::<Subdivision>().unwrap_err();
+        assert_eq!(e.to_string(), "unknown subdivision \"octree\"; use delaunay or bsp");
+        for n in Subdivision::NAMES {
+            assert!(e.to_string().contains(n));
+        }
+    }
+}
