@@ -20,6 +20,7 @@ pub mod model;
 pub mod output;
 pub mod predicates;
 pub mod scenes;
+pub mod suite;
 pub mod thesis_models;
 pub mod tolerances;
 
