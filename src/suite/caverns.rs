@@ -17,9 +17,9 @@ use std::collections::HashMap;
 pub const SPACING: f64 = 0.4;
 /// Coarsest grid spacing: the spacing grows from [`SPACING`] up to this while the mesh has
 /// more than [`TARGET_TRIANGLES`] triangles.
-pub const MAX_SPACING: f64 = 0.7;
+pub const MAX_SPACING: f64 = 0.75;
 /// Triangle budget of a cavern.
-pub const TARGET_TRIANGLES: usize = 8000;
+pub const TARGET_TRIANGLES: usize = 4500;
 /// Smooth-union radius.
 const BLEND: f64 = 0.5;
 
@@ -95,7 +95,7 @@ fn layout(rng: &mut Rng) -> (Vec<Ellipsoid>, Vec<Tunnel>) {
         Ellipsoid {
             center,
             axes: [[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]],
-            radii: [rng.range(2.0, 3.2), rng.range(1.8, 3.0), rng.range(1.4, 2.0)],
+            radii: [rng.range(1.6, 2.6), rng.range(1.5, 2.4), rng.range(1.25, 1.7)],
         }
     };
     let first = new_blob(rng, [0.0; 3]);
@@ -128,8 +128,8 @@ fn layout(rng: &mut Rng) -> (Vec<Ellipsoid>, Vec<Tunnel>) {
         if !disjoint {
             continue;
         }
-        let rmax = 0.6 * e.radii[2].min(blobs[j].radii[2]);
-        let r = rng.range(0.75, 1.3).min(rmax);
+        let rmax = 0.65 * e.radii[2].min(blobs[j].radii[2]);
+        let r = rng.range(0.75, 1.1).min(rmax);
         let t = Tunnel {
             a: j,
             b: blobs.len(),
