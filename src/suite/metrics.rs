@@ -161,7 +161,7 @@ pub(crate) fn sample_polyhedron(faces: &[ConvexPolygon], n: usize, rng: &mut Rng
     let tets = tetrahedra(faces);
     let vols: Vec<f64> = tets.iter().map(tet_volume).collect();
     let total: f64 = vols.iter().sum();
-    if tets.is_empty() || !(total > 0.0) {
+    if tets.is_empty() || total.is_nan() || total <= 0.0 {
         return Vec::new();
     }
     (0..n)
@@ -270,7 +270,7 @@ pub fn score(cx: &CellComplex, partition: &Partition, truth: &SuiteTruth, opts: 
     let mut drawn = 0;
     for &(id, v) in &active {
         let Some(f) = partition.cell_of(id) else { continue };
-        if !(v > 0.0) {
+        if v.is_nan() || v <= 0.0 {
             continue;
         }
         let n = ((opts.samples as f64 * v / active_volume).round() as usize).max(opts.min_per_cell.max(1));
