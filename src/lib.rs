@@ -29,6 +29,7 @@ pub mod model;
 pub mod output;
 pub mod pipeline;
 pub mod predicates;
+pub mod suite;
 pub mod tolerances;
 
 pub use ids::{CellId, PolygonId, TetId, VertexId};
