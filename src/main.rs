@@ -202,6 +202,31 @@ enum BenchCmd {
         /// Output file.
         out: PathBuf,
     },
+    /// The accuracy benchmark: every configuration on the ground-truth suite (generated
+    /// buildings and caverns, and the thesis models, each with true rooms and doorways):
+    /// rooms isolated, volumetric precision and recall (micro and macro), spike cells,
+    /// doorways matched, final cells per room, run time. Writes cases.csv, summary.csv,
+    /// accuracy.json and table.md into --out and prints the table. Tune settings on the
+    /// tune half (even seeds) and report the other.
+    Accuracy {
+        /// Configurations, comma-separated, as heuristic[/estimator]@stop; the stop `rooms`
+        /// is `cells:K` with K the true number of rooms (an oracle).
+        #[arg(
+            long,
+            value_delimiter = ',',
+            default_value = "aspect/hull@rooms,refined/hull@rooms,volume/hull@rooms,aspect/hull@threshold:3,clearance@threshold:1.8"
+        )]
+        configs: Vec<portalfind::suite::bench::Config>,
+        /// Which half of the suite: tune, report or all.
+        #[arg(long, default_value = "all")]
+        half: String,
+        /// Only these families (comma-separated; default all).
+        #[arg(long, value_delimiter = ',')]
+        families: Vec<String>,
+        /// Output directory.
+        #[arg(long, default_value = "results/accuracy")]
+        out: PathBuf,
+    },
     /// Run one case in this process and print it as JSON (what `bench delaunay` runs in a
     /// child process per case). With the environment variable PF_BENCH_STATS=1 it also
     /// prints the per-phase times and walk/cavity statistics to stderr.
@@ -211,6 +236,47 @@ enum BenchCmd {
         /// Number of points (grid: a k × k × k lattice with k³ close to it).
         n: usize,
     },
+}
+
+fn bench_accuracy(
+    configs: &[portalfind::suite::bench::Config],
+    half: &str,
+    families: &[String],
+    out: &std::path::Path,
+) -> Result<()> {
+    use portalfind::suite::{self, Half, bench};
+    let want_half = match half {
+        "tune" => Some(Half::Tune),
+        "report" => Some(Half::Report),
+        "all" => None,
+        other => bail!("unknown half {other:?}; use tune, report or all"),
+    };
+    let cases: Vec<_> = suite::suite()
+        .into_iter()
+        .filter(|c| want_half.is_none_or(|h| c.half == h))
+        .filter(|c| families.is_empty() || families.iter().any(|f| *f == c.family.to_string()))
+        .collect();
+    if cases.is_empty() {
+        bail!("no suite case matches --half {half} --families {}", families.join(","));
+    }
+    eprintln!("{} cases x {} configurations", cases.len(), configs.len());
+    let bar = indicatif::ProgressBar::new(cases.len() as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("accuracy {bar:40} {pos}/{len} cases [{elapsed}] {msg}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let results = bench::run_cases(&cases, configs, &Default::default(), &mut |i, r| {
+        bar.set_position(i as u64);
+        bar.set_message(r.name.clone());
+    })?;
+    bar.finish_and_clear();
+    bench::write_all(&results, out).with_context(|| format!("cannot write into {}", out.display()))?;
+    println!("{}", bench::table(&results));
+    println!(
+        "wrote {}/{{cases.csv,summary.csv,accuracy.json,table.md}}",
+        out.display()
+    );
+    Ok(())
 }
 
 /// Errors are printed as their context chain (file, line, element, fix), without a
@@ -267,6 +333,12 @@ fn run(cli: Cli) -> Result<()> {
                 json,
                 repeat,
             } => bench_delaunay(&sizes, &kinds, json, repeat),
+            BenchCmd::Accuracy {
+                configs,
+                half,
+                families,
+                out,
+            } => bench_accuracy(&configs, &half, &families, &out),
         },
         Cmd::Run {
             model,

@@ -65,6 +65,9 @@ pub fn config_label(case: &SuiteCase, s: &Settings) -> String {
         StopRule::Cells(n) if n == case.truth.rooms.len() => "cells:K".to_string(),
         other => other.to_string(),
     };
+    if s.heuristic == HeuristicKind::Clearance {
+        return format!("{} {stop}", s.heuristic);
+    }
     format!("{}/{} {stop}", s.heuristic, s.estimator)
 }
 
@@ -104,7 +107,8 @@ pub enum SuiteError {
 
 type Result<T> = std::result::Result<T, SuiteError>;
 
-/// Runs one case: builds the complex, decimates with `settings`, scores and times it.
+/// Loads the case, builds the Delaunay cell complex, decimates with `settings`, scores
+/// ([`score`] with default options) and times each stage.
 pub fn run_case(case: &SuiteCase, settings: &Settings) -> Result<CaseResult> {
     run_case_with(case, settings, &MetricOptions::default())
 }
@@ -144,6 +148,129 @@ pub fn run_case_with(case: &SuiteCase, settings: &Settings, opts: &MetricOptions
         seconds_decimate,
         seconds_score,
     })
+}
+
+/// The stop of a benchmark configuration.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ConfigStop {
+    /// `cells:K` with K the case's true number of rooms (an oracle: how good the merge
+    /// *order* is, whatever the stop).
+    Rooms,
+    /// A stop rule the user could give without knowing the answer.
+    Rule(StopRule),
+}
+
+/// One benchmark configuration: `heuristic/estimator@stop`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Config {
+    /// Heuristic.
+    pub heuristic: HeuristicKind,
+    /// Estimator (unused by `clearance`).
+    pub estimator: Estimator,
+    /// Stop.
+    pub stop: ConfigStop,
+}
+
+/// A configuration that cannot be parsed.
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "bad benchmark configuration {text:?}: {why}; write heuristic[/estimator]@stop, e.g. aspect/hull@rooms, clearance@threshold:1.8 (stop: rooms, threshold:W, cells:N or none)"
+)]
+pub struct ConfigError {
+    /// The text.
+    pub text: String,
+    /// Why.
+    pub why: String,
+}
+
+impl std::str::FromStr for Config {
+    type Err = ConfigError;
+    fn from_str(s: &str) -> std::result::Result<Self, ConfigError> {
+        let bad = |why: String| ConfigError {
+            text: s.to_string(),
+            why,
+        };
+        let (hs, stop) = s.split_once('@').ok_or_else(|| bad("no '@stop'".into()))?;
+        let (h, e) = hs.split_once('/').unwrap_or((hs, "hull"));
+        let heuristic = HeuristicKind::parse(h).map_err(|e| bad(e.to_string()))?;
+        let estimator = Estimator::parse(e).map_err(|e| bad(e.to_string()))?;
+        let stop = if stop == "rooms" {
+            ConfigStop::Rooms
+        } else {
+            ConfigStop::Rule(StopRule::parse(stop).map_err(|e| bad(e.to_string()))?)
+        };
+        Ok(Config {
+            heuristic,
+            estimator,
+            stop,
+        })
+    }
+}
+
+impl Config {
+    /// The decimation settings for `case`.
+    pub fn settings(&self, case: &SuiteCase) -> Settings {
+        Settings {
+            heuristic: self.heuristic,
+            estimator: self.estimator,
+            stop: match self.stop {
+                ConfigStop::Rooms => StopRule::Cells(case.truth.rooms.len().max(1)),
+                ConfigStop::Rule(r) => r,
+            },
+            ..Settings::default()
+        }
+    }
+}
+
+/// Runs every configuration on every case, building each case's complex once; calls
+/// `progress(case index, result)` after each run.
+pub fn run_cases(
+    cases: &[SuiteCase],
+    configs: &[Config],
+    opts: &MetricOptions,
+    progress: &mut dyn FnMut(usize, &CaseResult),
+) -> Result<Vec<CaseResult>> {
+    let mut out = Vec::new();
+    for (i, case) in cases.iter().enumerate() {
+        let t = Instant::now();
+        let model = case.load().map_err(|e| SuiteError::Load {
+            case: case.name.clone(),
+            source: Box::new(e),
+        })?;
+        let seconds_load = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let cx = crate::pipeline::complex_of(&model).map_err(|source| SuiteError::Cells {
+            case: case.name.clone(),
+            source,
+        })?;
+        let seconds_complex = t.elapsed().as_secs_f64();
+        for c in configs {
+            let settings = c.settings(case);
+            let t = Instant::now();
+            let dec = Decimation::run(&cx, &settings);
+            let seconds_decimate = t.elapsed().as_secs_f64();
+            let t = Instant::now();
+            let accuracy = score(&cx, &dec.partition, &case.truth, opts);
+            let r = CaseResult {
+                name: case.name.clone(),
+                family: case.family,
+                seed: case.seed,
+                half: case.half,
+                config: config_label(case, &settings),
+                triangles: model.triangle_count(),
+                complex_cells: cx.active_cells().count(),
+                leaks: cx.leaks.len(),
+                accuracy,
+                seconds_load,
+                seconds_complex,
+                seconds_decimate,
+                seconds_score: t.elapsed().as_secs_f64(),
+            };
+            progress(i, &r);
+            out.push(r);
+        }
+    }
+    Ok(out)
 }
 
 /// Aggregate of the results of one configuration on one family (or all) and half.
