@@ -128,6 +128,18 @@ heuristics! {
 }
 
 impl HeuristicKind {
+    /// The stop rule used when none is given: `threshold:`[`DEFAULT_RATIO`] for
+    /// `clearance` (scale-free), `threshold:3` for the thesis's heuristics (4.1.4 suggests
+    /// 3 to 4 for `aspect`).
+    ///
+    /// [`DEFAULT_RATIO`]: crate::decimate::clearance::DEFAULT_RATIO
+    pub fn default_stop(self) -> super::StopRule {
+        match self.heuristic().engine() {
+            Engine::Clearance => super::StopRule::Threshold(super::clearance::DEFAULT_RATIO),
+            Engine::Projected => super::StopRule::Threshold(3.0),
+        }
+    }
+
     /// The heuristic of this name, or an error listing the valid names.
     pub fn parse(s: &str) -> Result<Self, UnknownName> {
         HeuristicKind::ALL
