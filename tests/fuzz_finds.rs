@@ -9,7 +9,9 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 fn path(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/fuzz_finds").join(name)
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/fuzz_finds")
+        .join(name)
 }
 
 /// Loads and builds; `Ok(None)` when the loader refused the file.

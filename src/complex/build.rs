@@ -653,7 +653,12 @@ impl CellComplex {
     /// cut of `c` divides (tags numbered as [`apply_split`](Self::apply_split) will number
     /// the new patches), and whether all of them are valid (flat cells, exempt from the
     /// geometric check, only need the subdivision to happen).
-    fn plan_neighbours(&self, c: CellId, plane: &Plane, s: &PolyhedronSplit) -> (Vec<(CellId, ConvexPolyhedron)>, bool) {
+    fn plan_neighbours(
+        &self,
+        c: CellId,
+        plane: &Plane,
+        s: &PolyhedronSplit,
+    ) -> (Vec<(CellId, ConvexPolyhedron)>, bool) {
         let mut plan: Vec<(CellId, ConvexPolyhedron)> = Vec::new();
         let mut ok = true;
         let mut next_patch = self.patches.len() as u32 + 1; // after the section's patch

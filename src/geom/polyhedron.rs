@@ -321,8 +321,16 @@ impl ConvexPolyhedron {
         let mut bits: HashMap<Key, u32> = pos.iter().enumerate().map(|(i, p)| (key(p), i as u32)).collect();
         let mut xs: HashMap<(u32, u32), u32> = HashMap::new();
         let nf = faces.len();
-        let (mut ff, mut ft, mut fo) = (Vec::with_capacity(nf + 1), Vec::with_capacity(nf + 1), Vec::with_capacity(nf + 1));
-        let (mut bf, mut bt, mut bo) = (Vec::with_capacity(nf + 1), Vec::with_capacity(nf + 1), Vec::with_capacity(nf + 1));
+        let (mut ff, mut ft, mut fo) = (
+            Vec::with_capacity(nf + 1),
+            Vec::with_capacity(nf + 1),
+            Vec::with_capacity(nf + 1),
+        );
+        let (mut bf, mut bt, mut bo) = (
+            Vec::with_capacity(nf + 1),
+            Vec::with_capacity(nf + 1),
+            Vec::with_capacity(nf + 1),
+        );
         for (fi, v) in faces.iter().enumerate() {
             let fs: Vec<Side> = v.iter().map(|&i| sides[i as usize]).collect();
             let tag = self.tags[fi];
