@@ -231,23 +231,27 @@ impl ConvexPolyhedron {
     /// Cut by `plane` into front and back pieces, or decide which side the whole lies on.
     ///
     /// Every distinct vertex is classified once (Front/Back/On, tolerance
-    /// `tol.plane_abs()`); both pieces are built from that one classification. On
-    /// vertices go to both pieces; each crossed edge gets one new vertex (canonical
-    /// interpolation, cached), shared by both faces along that edge, by both pieces and
-    /// by the cross-section, so conforming input gives conforming output. Faces keep
-    /// their tags; the cross-section gets `new_tag`.
+    /// [`Tolerances::snap_abs`], the weld distance: a vertex that near the plane is on it,
+    /// so no new vertex is ever created within the weld distance of an edge's endpoint);
+    /// faces become index cycles over that vertex table and both pieces are built from
+    /// that one classification. On vertices go to both pieces; each crossed edge gets one
+    /// new vertex (canonical interpolation, once per edge), shared by both faces along
+    /// that edge, by both pieces and by the cross-section. The cross-section is the cycle
+    /// of the back piece's open boundary edges (not an angular sort of points), and the
+    /// front piece's open boundary must be its exact reverse; both pieces must pass
+    /// [`check`](Self::check). So a valid polyhedron is only ever cut into valid pieces.
+    /// Faces keep their tags; the cross-section gets `new_tag`.
     ///
     /// Not split (returns the side holding the polyhedron, or its larger part) when:
     /// - no vertex is strictly on one side (the plane misses or grazes: touches a vertex,
-    ///   an edge or a face);
-    /// - a side's farthest vertex is closer than `max(tol.weld_abs(), tol.plane_abs())`
-    ///   (a slab thinner than the weld distance);
+    ///   an edge or a face, within the weld distance);
     /// - the cross-section area is below `tol.area_abs()`;
     /// - a piece's volume is below [`min_volume`]`(tol)`;
-    /// - degenerate input: a face lies entirely on the plane, or fewer than 3 section
-    ///   points.
+    /// - the pieces would not be valid: a face lies entirely on the plane (a sliver face),
+    ///   a crossing point rounds onto another vertex, the open boundary is not one simple
+    ///   cycle, or a piece fails [`check`](Self::check).
     pub fn cut(&self, plane: &Plane, tol: &Tolerances, new_tag: u32) -> Cut {
-        let cl = Classifier::new(plane, tol);
+        let cl = Classifier::snapping(plane, tol);
         let eps = cl.eps;
         // The vertex table: each distinct vertex (exact bits) once, with its one distance.
         // Faces become index cycles, so every decision below is made once per vertex or
@@ -421,7 +425,7 @@ impl ConvexPolyhedron {
     /// The new vertices are also inserted into the neighbouring faces' edges (as
     /// collinear T-vertices), so the boundary stays conforming. Returns `None` (and
     /// changes nothing) unless the face straddles the plane (tolerance
-    /// `tol.plane_abs()`); no area test is applied, so either patch may be small.
+    /// [`Tolerances::snap_abs`], as in [`cut`](Self::cut)); no area test is applied, so either patch may be small.
     pub fn split_face(
         &mut self,
         i: usize,
@@ -430,7 +434,7 @@ impl ConvexPolyhedron {
         front_tag: u32,
         back_tag: u32,
     ) -> Option<usize> {
-        let cl = Classifier::new(plane, tol);
+        let cl = Classifier::snapping(plane, tol);
         let v = self.faces[i].verts.clone();
         let ds: Vec<f64> = v.iter().map(|p| cl.dist(p)).collect();
         let sides: Vec<Side> = ds.iter().map(|&d| cl.side_of(d)).collect();
@@ -996,7 +1000,10 @@ mod tests {
                 }
                 assert!(splits > 20, "{}: {splits}", fr.name);
                 let v: f64 = pieces.iter().map(|p| p.volume()).sum();
-                assert_close(v, v0, 1e-9, fr.name);
+                // Vertices within the weld distance of a plane are On (`Tolerances::snap_abs`),
+                // so a section may be non-planar by up to that distance and a face later split
+                // across it changes its fan volume by ~weld × area: 1e-8, not 1e-9.
+                assert_close(v, v0, 1e-8, fr.name);
             }
         }
     }
