@@ -684,7 +684,7 @@ impl CellComplex {
             match nb.tags.iter().position(|&x| x == t) {
                 // The neighbour's face is reversed: its "front" along `plane` is the same
                 // half-space, so the front part keeps tag t.
-                Some(fi) => ok &= nb.split_face(fi, plane, &self.tol, t, t2).is_some(),
+                Some(fi) => ok &= nb.split_face_within(fi, plane, s.on_dist, t, t2).is_some(),
                 None => ok = false,
             }
         }

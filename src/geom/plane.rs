@@ -165,6 +165,17 @@ impl Classifier {
         }
     }
 
+    /// With an explicit On distance.
+    pub(crate) fn with_eps(plane: &Plane, eps: f64) -> Self {
+        let l = norm(&plane.n);
+        let inv_len = if l > 0.0 && l.is_finite() { 1.0 / l } else { f64::NAN };
+        Classifier {
+            plane: *plane,
+            inv_len,
+            eps,
+        }
+    }
+
     /// Signed distance (NaN for a degenerate plane).
     #[inline]
     pub(crate) fn dist(&self, p: &P3) -> f64 {

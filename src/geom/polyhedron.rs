@@ -41,6 +41,10 @@ pub struct PolyhedronSplit {
     pub front_origin: Vec<Option<usize>>,
     /// As `front_origin`, for `back`.
     pub back_origin: Vec<Option<usize>>,
+    /// The distance within which vertices counted as on the plane in this cut; faces of
+    /// neighbours sharing a divided face must be subdivided with the same one
+    /// ([`split_face_within`](ConvexPolyhedron::split_face_within)).
+    pub on_dist: f64,
 }
 
 /// Outcome of [`ConvexPolyhedron::cut`].
@@ -231,8 +235,10 @@ impl ConvexPolyhedron {
     /// Cut by `plane` into front and back pieces, or decide which side the whole lies on.
     ///
     /// Every distinct vertex is classified once (Front/Back/On, tolerance
-    /// [`Tolerances::snap_abs`], the weld distance: a vertex that near the plane is on it,
-    /// so no new vertex is ever created within the weld distance of an edge's endpoint);
+    /// `tol.plane_abs()`; if that gives no valid pieces, once more with
+    /// [`Tolerances::snap_abs`], the weld distance: a vertex that near the plane is then on
+    /// it, so no vertex is created within the weld distance of an edge's endpoint, the
+    /// sliver edges and faces a later cut cannot classify consistently);
     /// faces become index cycles over that vertex table and both pieces are built from
     /// that one classification. On vertices go to both pieces; each crossed edge gets one
     /// new vertex (canonical interpolation, once per edge), shared by both faces along
@@ -251,7 +257,21 @@ impl ConvexPolyhedron {
     ///   a crossing point rounds onto another vertex, the open boundary is not one simple
     ///   cycle, or a piece fails [`check`](Self::check).
     pub fn cut(&self, plane: &Plane, tol: &Tolerances, new_tag: u32) -> Cut {
-        let cl = Classifier::snapping(plane, tol);
+        // First with the plane tolerance; when that gives no valid pieces (typically a
+        // vertex a hair off the plane makes a sliver edge or face), once more with
+        // vertices within the weld distance on the plane.
+        match self.cut_within(&Classifier::new(plane, tol), plane, tol, new_tag) {
+            (c, false) => c,
+            (_, true) => {
+                self.cut_within(&Classifier::snapping(plane, tol), plane, tol, new_tag)
+                    .0
+            }
+        }
+    }
+
+    /// [`cut`](Self::cut) with one classifier; the flag is true when the cut was refused
+    /// only because its pieces would not have been valid.
+    fn cut_within(&self, cl: &Classifier, plane: &Plane, tol: &Tolerances, new_tag: u32) -> (Cut, bool) {
         let eps = cl.eps;
         // The vertex table: each distinct vertex (exact bits) once, with its one distance.
         // Faces become index cycles, so every decision below is made once per vertex or
@@ -282,24 +302,24 @@ impl ConvexPolyhedron {
         }
         let larger = if maxf > maxb { Cut::Front } else { Cut::Back };
         if !(maxb > eps) {
-            return if maxf > eps { Cut::Front } else { larger };
+            return (if maxf > eps { Cut::Front } else { larger }, false);
         }
         if !(maxf > eps) {
-            return Cut::Back;
+            return (Cut::Back, false);
         }
         let thick = tol.weld_abs().max(eps);
         if maxf < thick || maxb < thick {
-            return larger;
+            return (larger, false);
         }
-        match self.cut_topological(&faces, pos, &dist, &cl, plane, tol, new_tag) {
+        match self.cut_topological(&faces, pos, &dist, cl, plane, tol, new_tag) {
             Some(s) => {
                 let (vf, vb) = (s.front.volume(), s.back.volume());
                 if !(vf.min(vb) >= min_volume(tol)) {
-                    return if vf >= vb { Cut::Front } else { Cut::Back };
+                    return (if vf >= vb { Cut::Front } else { Cut::Back }, false);
                 }
-                Cut::Split(Box::new(s))
+                (Cut::Split(Box::new(s)), false)
             }
-            None => larger,
+            None => (larger, true),
         }
     }
 
@@ -416,6 +436,7 @@ impl ConvexPolyhedron {
             section,
             front_origin: fo,
             back_origin: bo,
+            on_dist: cl.eps,
         })
     }
 
@@ -425,7 +446,7 @@ impl ConvexPolyhedron {
     /// The new vertices are also inserted into the neighbouring faces' edges (as
     /// collinear T-vertices), so the boundary stays conforming. Returns `None` (and
     /// changes nothing) unless the face straddles the plane (tolerance
-    /// [`Tolerances::snap_abs`], as in [`cut`](Self::cut)); no area test is applied, so either patch may be small.
+    /// `tol.plane_abs()`); no area test is applied, so either patch may be small.
     pub fn split_face(
         &mut self,
         i: usize,
@@ -434,7 +455,20 @@ impl ConvexPolyhedron {
         front_tag: u32,
         back_tag: u32,
     ) -> Option<usize> {
-        let cl = Classifier::snapping(plane, tol);
+        self.split_face_within(i, plane, tol.plane_abs(), front_tag, back_tag)
+    }
+
+    /// [`split_face`](Self::split_face) with vertices within `on_dist` of the plane on it
+    /// (the [`PolyhedronSplit::on_dist`] of the cut being propagated).
+    pub fn split_face_within(
+        &mut self,
+        i: usize,
+        plane: &Plane,
+        on_dist: f64,
+        front_tag: u32,
+        back_tag: u32,
+    ) -> Option<usize> {
+        let cl = Classifier::with_eps(plane, on_dist);
         let v = self.faces[i].verts.clone();
         let ds: Vec<f64> = v.iter().map(|p| cl.dist(p)).collect();
         let sides: Vec<Side> = ds.iter().map(|&d| cl.side_of(d)).collect();
