@@ -27,7 +27,7 @@
 //! |--------------------------------------------------------|-----------------------------|
 //! | vertex Front / Back / On a plane (or an edge line, 2D)   | `plane_abs()`               |
 //! | polygon split part, intersection, clip result, subtraction piece, cross-section too small | `area_abs()` |
-//! | vertex Front / Back / On a plane that cuts a polyhedron (or subdivides its face) | `snap_abs()` = `max(weld_abs(), plane_abs())` |
+//! | vertex Front / Back / On a plane that cuts a polyhedron: first `plane_abs()`; if that gives no valid pieces, `snap_abs()` = `max(weld_abs(), plane_abs())` (neighbours' faces are subdivided with the same one) | `plane_abs()`, then `snap_abs()` |
 //! | convexity allowance of a polyhedron or polygon (`check`, `is_convex`, `contains`) | `snap_abs()` + rounding |
 //! | polyhedron piece too small                             | [`min_volume`] = `(area·scale)³` |
 //! | edges ignored in point-in-polygon / convexity checks     | shorter than `weld_abs()`   |
