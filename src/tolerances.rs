@@ -61,6 +61,15 @@ impl Tolerances {
     pub fn plane_abs(&self) -> f64 {
         self.plane * self.scale
     }
+    /// Distance within which a vertex counts as lying on a plane that *cuts a cell*, and
+    /// the convexity allowance of cells: `max(weld, plane)`. A cut through an edge whose
+    /// endpoint is nearer than this would create a vertex nearer than the weld distance
+    /// to an existing one (the sliver edges and faces that later cuts cannot classify
+    /// consistently), so such endpoints are on the plane instead; a cell is then convex
+    /// up to this distance.
+    pub fn snap_abs(&self) -> f64 {
+        self.weld_abs().max(self.plane_abs())
+    }
     /// The tolerances for a split that *seals a crack*: a cell crossed by model polygons
     /// whose cross-section is covered by them up to cracks (narrower than
     /// [`sliver_width`](Self::sliver_width)) must be split even when that section is below

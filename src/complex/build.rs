@@ -479,7 +479,7 @@ impl CellComplex {
             })
             .collect();
         self.stats.cells_sealed += 1;
-        Some(self.commit_split(c, &plane, *s, occluders))
+        self.try_commit_split(c, &plane, *s, occluders)
     }
 
     /// Distance within which a face counts as lying on a support plane: the projection
@@ -628,20 +628,102 @@ impl CellComplex {
             source: pid,
             faces: 1,
         };
-        Some(self.commit_split(c, plane, *s, vec![occ]))
+        self.try_commit_split(c, plane, *s, vec![occ])
+    }
+
+    /// [`commit_split`](Self::commit_split) only if every neighbour across a patch the
+    /// cut divides stays a valid polyhedron after subdividing its face the same way (the
+    /// split is all-or-nothing); `None` changes nothing and the caller treats the split as
+    /// refused.
+    pub(crate) fn try_commit_split(
+        &mut self,
+        c: CellId,
+        plane: &Plane,
+        s: PolyhedronSplit,
+        occluders: Vec<Occluder>,
+    ) -> Option<(CellId, CellId)> {
+        let (plan, ok) = self.plan_neighbours(c, plane, &s);
+        if !ok {
+            return None;
+        }
+        Some(self.apply_split(c, plane, s, occluders, plan))
+    }
+
+    /// The neighbours' polyhedra after subdividing their faces on the patches that the
+    /// cut of `c` divides (tags numbered as [`apply_split`](Self::apply_split) will number
+    /// the new patches), and whether all of them are valid (flat cells, exempt from the
+    /// geometric check, only need the subdivision to happen).
+    fn plan_neighbours(
+        &self,
+        c: CellId,
+        plane: &Plane,
+        s: &PolyhedronSplit,
+    ) -> (Vec<(CellId, ConvexPolyhedron)>, bool) {
+        let mut plan: Vec<(CellId, ConvexPolyhedron)> = Vec::new();
+        let mut ok = true;
+        let mut next_patch = self.patches.len() as u32 + 1; // after the section's patch
+        for &t in &self.cells[c.idx()].poly.tags {
+            if !(s.front.tags.contains(&t) && s.back.tags.contains(&t)) {
+                continue;
+            }
+            let t2 = next_patch;
+            next_patch += 1;
+            let p = &self.patches[t as usize];
+            let other = if p.cells[0] == c { p.cells[1] } else { p.cells[0] };
+            if other == HULL {
+                continue;
+            }
+            let k = match plan.iter().position(|(o, _)| *o == other) {
+                Some(k) => k,
+                None => {
+                    plan.push((other, self.cells[other.idx()].poly.clone()));
+                    plan.len() - 1
+                }
+            };
+            let nb = &mut plan[k].1;
+            match nb.tags.iter().position(|&x| x == t) {
+                // The neighbour's face is reversed: its "front" along `plane` is the same
+                // half-space, so the front part keeps tag t.
+                Some(fi) => ok &= nb.split_face_within(fi, plane, s.on_dist, t, t2).is_some(),
+                None => ok = false,
+            }
+        }
+        for (o, poly) in &plan {
+            if !self.cells[o.idx()].flat && poly.check(&self.tol).is_err() {
+                ok = false;
+            }
+        }
+        (plan, ok)
     }
 
     /// Replaces cell `c` by the two pieces of `s` (its cut by `plane`, made with the tag
     /// of the next patch): the cross-section becomes a new patch carrying `occluders`
     /// (in the section's orientation: `faces == 1` faces the front piece), the old patches
     /// move to the piece they lie in or are split in two, and the neighbours across split
-    /// patches subdivide their faces. Returns (front, back).
+    /// patches subdivide their faces. Returns (front, back). Unlike
+    /// [`try_commit_split`](Self::try_commit_split), commits even when a neighbour's face
+    /// could not be subdivided validly (counted in `splits_refused`).
     pub(crate) fn commit_split(
         &mut self,
         c: CellId,
         plane: &Plane,
         s: PolyhedronSplit,
         occluders: Vec<Occluder>,
+    ) -> (CellId, CellId) {
+        let (plan, ok) = self.plan_neighbours(c, plane, &s);
+        if !ok {
+            self.stats.splits_refused += 1;
+        }
+        self.apply_split(c, plane, s, occluders, plan)
+    }
+
+    fn apply_split(
+        &mut self,
+        c: CellId,
+        plane: &Plane,
+        s: PolyhedronSplit,
+        occluders: Vec<Occluder>,
+        plan: Vec<(CellId, ConvexPolyhedron)>,
     ) -> (CellId, CellId) {
         let (fid, bid) = (CellId(self.cells.len() as u32), CellId(self.cells.len() as u32 + 1));
         let tet = self.cells[c.idx()].tet;
@@ -700,24 +782,16 @@ impl CellComplex {
                         occluders: occ_b,
                         alive: true,
                     });
-                    // The neighbour across must subdivide its face the same way.
-                    if other != HULL {
-                        let nb = &mut self.cells[other.idx()].poly;
-                        if let Some(fi) = nb.tags.iter().position(|&x| x as usize == t) {
-                            // The neighbour's face is reversed: its "front" along `plane` is
-                            // the same half-space, so the front part keeps tag t.
-                            if nb.split_face(fi, plane, &self.tol, t as u32, t2).is_none() {
-                                // Could not split the neighbour's face (grazing): keep tag t
-                                // there and note the inconsistency in the patch counts.
-                                self.stats.splits_refused += 1;
-                            }
-                        }
-                    }
+                    // The neighbour across subdivides its face the same way (planned).
+                    let _ = (other, t2);
                 }
                 (false, false) => {}
             }
         }
         let _ = &mut front;
+        for (o, poly) in plan {
+            self.cells[o.idx()].poly = poly;
+        }
         self.cells[c.idx()].alive = false;
         self.cells.push(Cell {
             poly: front,

@@ -85,17 +85,24 @@ pub struct ComplexValidation {
 }
 
 impl CellComplex {
-    /// Checks every invariant listed in the module docs (the model is needed for the
-    /// "no portal crosses a model polygon" check).
-    pub fn validate(&self, model: &Model) -> Result<ComplexValidation, ComplexError> {
+    /// The structural part of [`validate`](Self::validate), cheap enough for every build
+    /// (linear in the total size of the alive cells; no model needed): every alive cell is
+    /// a valid convex polyhedron (flat ones exempt), cells and patches name each other,
+    /// and the cell volumes sum to the hull volume. A complex that fails it must not be
+    /// used: callers (`run`, `complex`, experiments) should turn the error into a failure.
+    pub fn check_valid(&self) -> Result<(), ComplexError> {
+        self.check_cells().map(|_| ())
+    }
+
+    fn check_cells(&self) -> Result<(usize, f64), ComplexError> {
         let tol = &self.tol;
-        let mut v = ComplexValidation::default();
+        let mut count = 0;
         let mut vol = 0.0;
         for (i, c) in self.cells.iter().enumerate() {
             if !c.alive {
                 continue;
             }
-            v.cells += 1;
+            count += 1;
             // Flat cells are exact, positively oriented tetrahedra (checked by the
             // tetrahedralization's validation) too thin for a floating-point check.
             if !c.flat {
@@ -132,13 +139,24 @@ impl CellComplex {
                 }
             }
         }
-        v.volume_rel_error = (vol - self.hull_volume).abs() / self.hull_volume;
-        if v.volume_rel_error > 1e-9 {
+        let rel = (vol - self.hull_volume).abs() / self.hull_volume;
+        if rel > 1e-9 {
             return Err(ComplexError::Volume {
                 sum: vol,
                 hull: self.hull_volume,
             });
         }
+        Ok((count, rel))
+    }
+
+    /// Checks every invariant listed in the module docs (the model is needed for the
+    /// "no portal crosses a model polygon" check).
+    pub fn validate(&self, model: &Model) -> Result<ComplexValidation, ComplexError> {
+        let tol = &self.tol;
+        let mut v = ComplexValidation::default();
+        let (cells, rel) = self.check_cells()?;
+        v.cells = cells;
+        v.volume_rel_error = rel;
         for (pi, p) in self.patches.iter().enumerate() {
             if !p.alive {
                 continue;

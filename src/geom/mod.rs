@@ -27,7 +27,8 @@
 //! |--------------------------------------------------------|-----------------------------|
 //! | vertex Front / Back / On a plane (or an edge line, 2D)   | `plane_abs()`               |
 //! | polygon split part, intersection, clip result, subtraction piece, cross-section too small | `area_abs()` |
-//! | polyhedron piece too thin (farthest vertex from plane)  | `max(weld_abs(), plane_abs())` |
+//! | vertex Front / Back / On a plane that cuts a polyhedron: first `plane_abs()`; if that gives no valid pieces, `snap_abs()` = `max(weld_abs(), plane_abs())` (neighbours' faces are subdivided with the same one) | `plane_abs()`, then `snap_abs()` |
+//! | convexity allowance of a polyhedron or polygon (`check`, `is_convex`, `contains`) | `snap_abs()` + rounding |
 //! | polyhedron piece too small                             | [`min_volume`] = `(area·scale)³` |
 //! | edges ignored in point-in-polygon / convexity checks     | shorter than `weld_abs()`   |
 //!
@@ -48,7 +49,8 @@
 //!    carry collinear T-vertices where an adjacent facet was subdivided.
 //!    [`ConvexPolyhedron::split_face`] maintains this by inserting the T-vertices.
 //! 3. Convex within tolerance: every vertex is behind every (non-tiny) face plane, within
-//!    `plane_abs()` plus the face plane's rounding uncertainty.
+//!    `snap_abs()` (the weld distance: cuts treat vertices that near a plane as on it)
+//!    plus the face plane's rounding uncertainty.
 //!
 //! Operations preserve these invariants: [`ConvexPolyhedron::cut`] classifies each
 //! distinct vertex once, computes one new vertex per crossed edge (interpolated in a

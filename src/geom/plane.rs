@@ -155,6 +155,27 @@ impl Classifier {
         }
     }
 
+    /// For cutting polyhedra: points within [`Tolerances::snap_abs`] (the weld distance)
+    /// of the plane are On, so a cut never creates a vertex closer than that to the
+    /// endpoints of the edge it crosses (no sliver edges or faces).
+    pub(crate) fn snapping(plane: &Plane, tol: &Tolerances) -> Self {
+        Classifier {
+            eps: tol.snap_abs(),
+            ..Classifier::new(plane, tol)
+        }
+    }
+
+    /// With an explicit On distance.
+    pub(crate) fn with_eps(plane: &Plane, eps: f64) -> Self {
+        let l = norm(&plane.n);
+        let inv_len = if l > 0.0 && l.is_finite() { 1.0 / l } else { f64::NAN };
+        Classifier {
+            plane: *plane,
+            inv_len,
+            eps,
+        }
+    }
+
     /// Signed distance (NaN for a degenerate plane).
     #[inline]
     pub(crate) fn dist(&self, p: &P3) -> f64 {

@@ -407,7 +407,7 @@ impl FacePlane {
     /// `(signed distance, allowed distance)` of `p`.
     pub(crate) fn test(&self, p: &P3, tol: &Tolerances) -> (f64, f64) {
         let d = self.plane.signed_distance(p);
-        let slack = tol.plane_abs() + 8.0 * self.u * (1.0 + norm(&sub(p, &self.c)) * self.inv_w);
+        let slack = tol.snap_abs() + 8.0 * self.u * (1.0 + norm(&sub(p, &self.c)) * self.inv_w);
         (d, slack)
     }
 }

@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use super::plane::{Classification, Classifier, Plane, Side};
 use super::polygon::{ConvexPolygon, FacePlane, crossing, walk_split};
-use super::vec::{Key, add, axes, cross, dot, key, scale, sub};
+use super::vec::{Key, add, cross, dot, key, scale, sub};
 use crate::predicates::{P3, orient3d};
 use crate::tolerances::Tolerances;
 
@@ -41,6 +41,10 @@ pub struct PolyhedronSplit {
     pub front_origin: Vec<Option<usize>>,
     /// As `front_origin`, for `back`.
     pub back_origin: Vec<Option<usize>>,
+    /// The distance within which vertices counted as on the plane in this cut; faces of
+    /// neighbours sharing a divided face must be subdivided with the same one
+    /// ([`split_face_within`](ConvexPolyhedron::split_face_within)).
+    pub on_dist: f64,
 }
 
 /// Outcome of [`ConvexPolyhedron::cut`].
@@ -231,50 +235,116 @@ impl ConvexPolyhedron {
     /// Cut by `plane` into front and back pieces, or decide which side the whole lies on.
     ///
     /// Every distinct vertex is classified once (Front/Back/On, tolerance
-    /// `tol.plane_abs()`); both pieces are built from that one classification. On
-    /// vertices go to both pieces; each crossed edge gets one new vertex (canonical
-    /// interpolation, cached), shared by both faces along that edge, by both pieces and
-    /// by the cross-section, so conforming input gives conforming output. Faces keep
-    /// their tags; the cross-section gets `new_tag`.
+    /// `tol.plane_abs()`; if that gives no valid pieces, once more with
+    /// [`Tolerances::snap_abs`], the weld distance: a vertex that near the plane is then on
+    /// it, so no vertex is created within the weld distance of an edge's endpoint, the
+    /// sliver edges and faces a later cut cannot classify consistently);
+    /// faces become index cycles over that vertex table and both pieces are built from
+    /// that one classification. On vertices go to both pieces; each crossed edge gets one
+    /// new vertex (canonical interpolation, once per edge), shared by both faces along
+    /// that edge, by both pieces and by the cross-section. The cross-section is the cycle
+    /// of the back piece's open boundary edges (not an angular sort of points), and the
+    /// front piece's open boundary must be its exact reverse; both pieces must pass
+    /// [`check`](Self::check). So a valid polyhedron is only ever cut into valid pieces.
+    /// Faces keep their tags; the cross-section gets `new_tag`.
     ///
     /// Not split (returns the side holding the polyhedron, or its larger part) when:
     /// - no vertex is strictly on one side (the plane misses or grazes: touches a vertex,
-    ///   an edge or a face);
-    /// - a side's farthest vertex is closer than `max(tol.weld_abs(), tol.plane_abs())`
-    ///   (a slab thinner than the weld distance);
+    ///   an edge or a face, within the weld distance);
     /// - the cross-section area is below `tol.area_abs()`;
     /// - a piece's volume is below [`min_volume`]`(tol)`;
-    /// - degenerate input: a face lies entirely on the plane, or fewer than 3 section
-    ///   points.
+    /// - the pieces would not be valid: a face lies entirely on the plane (a sliver face),
+    ///   a crossing point rounds onto another vertex, the open boundary is not one simple
+    ///   cycle, or a piece fails [`check`](Self::check).
     pub fn cut(&self, plane: &Plane, tol: &Tolerances, new_tag: u32) -> Cut {
-        let cl = Classifier::new(plane, tol);
-        let eps = cl.eps;
-        let mut dist: HashMap<Key, f64> = HashMap::new();
-        let (mut maxf, mut maxb) = (0.0f64, 0.0f64);
-        for f in &self.faces {
-            for v in &f.verts {
-                let d = *dist.entry(key(v)).or_insert_with(|| cl.dist(v));
-                if d > maxf {
-                    maxf = d;
-                }
-                if -d > maxb {
-                    maxb = -d;
-                }
+        // First with the plane tolerance; when that gives no valid pieces (typically a
+        // vertex a hair off the plane makes a sliver edge or face), once more with
+        // vertices within the weld distance on the plane.
+        match self.cut_within(&Classifier::new(plane, tol), plane, tol, new_tag) {
+            (c, false) => c,
+            (_, true) => {
+                self.cut_within(&Classifier::snapping(plane, tol), plane, tol, new_tag)
+                    .0
             }
+        }
+    }
+
+    /// [`cut`](Self::cut) with one classifier; the flag is true when the cut was refused
+    /// only because its pieces would not have been valid.
+    fn cut_within(&self, cl: &Classifier, plane: &Plane, tol: &Tolerances, new_tag: u32) -> (Cut, bool) {
+        let eps = cl.eps;
+        // The vertex table: each distinct vertex (exact bits) once, with its one distance.
+        // Faces become index cycles, so every decision below is made once per vertex or
+        // per edge and both faces along an edge, and both pieces, see the same answer.
+        let mut index: HashMap<Key, u32> = HashMap::new();
+        let mut pos: Vec<P3> = Vec::new();
+        let mut dist: Vec<f64> = Vec::new();
+        let faces: Vec<Vec<u32>> = self
+            .faces
+            .iter()
+            .map(|f| {
+                f.verts
+                    .iter()
+                    .map(|v| {
+                        *index.entry(key(v)).or_insert_with(|| {
+                            pos.push(*v);
+                            dist.push(cl.dist(v));
+                            (pos.len() - 1) as u32
+                        })
+                    })
+                    .collect()
+            })
+            .collect();
+        let (mut maxf, mut maxb) = (0.0f64, 0.0f64);
+        for &d in &dist {
+            maxf = maxf.max(d);
+            maxb = maxb.max(-d);
         }
         let larger = if maxf > maxb { Cut::Front } else { Cut::Back };
         if !(maxb > eps) {
-            return if maxf > eps { Cut::Front } else { larger };
+            return (if maxf > eps { Cut::Front } else { larger }, false);
         }
         if !(maxf > eps) {
-            return Cut::Back;
+            return (Cut::Back, false);
         }
         let thick = tol.weld_abs().max(eps);
         if maxf < thick || maxb < thick {
-            return larger;
+            return (larger, false);
         }
+        match self.cut_topological(&faces, pos, &dist, cl, plane, tol, new_tag) {
+            Some(s) => {
+                let (vf, vb) = (s.front.volume(), s.back.volume());
+                if !(vf.min(vb) >= min_volume(tol)) {
+                    return (if vf >= vb { Cut::Front } else { Cut::Back }, false);
+                }
+                (Cut::Split(Box::new(s)), false)
+            }
+            None => (larger, true),
+        }
+    }
 
-        let nf = self.faces.len();
+    /// The pieces of a cut on the vertex table of [`cut`](Self::cut), or `None` when they
+    /// would not be valid polyhedra (the caller then does not split). The cross-section is
+    /// not found geometrically (ordering points by angle goes wrong for nearly collinear or
+    /// nearly coincident points): it is the cycle of the back piece's open boundary edges,
+    /// reversed, which is conforming by construction; the front piece's open boundary must
+    /// be exactly its reverse. Both pieces must then pass [`check`](Self::check), so a cut
+    /// never turns a valid polyhedron into an invalid one.
+    #[allow(clippy::too_many_arguments)]
+    fn cut_topological(
+        &self,
+        faces: &[Vec<u32>],
+        mut pos: Vec<P3>,
+        dist: &[f64],
+        cl: &Classifier,
+        plane: &Plane,
+        tol: &Tolerances,
+        new_tag: u32,
+    ) -> Option<PolyhedronSplit> {
+        let sides: Vec<Side> = dist.iter().map(|&d| cl.side_of(d)).collect();
+        let mut bits: HashMap<Key, u32> = pos.iter().enumerate().map(|(i, p)| (key(p), i as u32)).collect();
+        let mut xs: HashMap<(u32, u32), u32> = HashMap::new();
+        let nf = faces.len();
         let (mut ff, mut ft, mut fo) = (
             Vec::with_capacity(nf + 1),
             Vec::with_capacity(nf + 1),
@@ -285,79 +355,89 @@ impl ConvexPolyhedron {
             Vec::with_capacity(nf + 1),
             Vec::with_capacity(nf + 1),
         );
-        let mut xs: HashMap<(Key, Key), usize> = HashMap::new();
-        let mut pts: Vec<P3> = vec![]; // On vertices and crossing points, first-seen order
-        let mut seen: HashSet<Key> = HashSet::new();
-        for (fi, face) in self.faces.iter().enumerate() {
-            let v = &face.verts;
-            let ds: Vec<f64> = v.iter().map(|p| dist[&key(p)]).collect();
-            let sides: Vec<Side> = ds.iter().map(|&d| cl.side_of(d)).collect();
-            for (p, s) in v.iter().zip(&sides) {
-                if *s == Side::On && seen.insert(key(p)) {
-                    pts.push(*p);
-                }
-            }
+        for (fi, v) in faces.iter().enumerate() {
+            let fs: Vec<Side> = v.iter().map(|&i| sides[i as usize]).collect();
             let tag = self.tags[fi];
-            match Classification::from_sides(sides.iter().copied()) {
-                Classification::Coplanar => return larger,
+            match Classification::from_sides(fs.iter().copied()) {
+                Classification::Coplanar => return None,
                 Classification::Front => {
-                    ff.push(face.clone());
+                    ff.push(v.clone());
                     ft.push(tag);
                     fo.push(Some(fi));
                 }
                 Classification::Back => {
-                    bf.push(face.clone());
+                    bf.push(v.clone());
                     bt.push(tag);
                     bo.push(Some(fi));
                 }
                 Classification::Straddles => {
-                    let (f, b) = walk_split(v, &sides, |i, j| {
-                        let (ki, kj) = (key(&v[i]), key(&v[j]));
-                        let k = if ki <= kj { (ki, kj) } else { (kj, ki) };
-                        let idx = *xs.entry(k).or_insert_with(|| {
-                            let x = crossing(&v[i], ds[i], &v[j], ds[j]);
-                            if seen.insert(key(&x)) {
-                                pts.push(x);
+                    let mut fresh_collision = false;
+                    let (f, b) = walk_split(v, &fs, |i, j| {
+                        let (a, c) = (v[i], v[j]);
+                        let k = if a < c { (a, c) } else { (c, a) };
+                        *xs.entry(k).or_insert_with(|| {
+                            let (a, c) = (a as usize, c as usize);
+                            let x = crossing(&pos[a], dist[a], &pos[c], dist[c]);
+                            let id = pos.len() as u32;
+                            // A crossing point equal in bits to another vertex would merge
+                            // two vertices the topology keeps apart: refuse.
+                            if bits.insert(key(&x), id).is_some() {
+                                fresh_collision = true;
                             }
-                            pts.len() - 1
-                        });
-                        pts[idx]
+                            pos.push(x);
+                            id
+                        })
                     });
-                    ff.push(ConvexPolygon::new(f));
+                    if fresh_collision {
+                        return None;
+                    }
+                    ff.push(f);
                     ft.push(tag);
                     fo.push(Some(fi));
-                    bf.push(ConvexPolygon::new(b));
+                    bf.push(b);
                     bt.push(tag);
                     bo.push(Some(fi));
                 }
             }
         }
-
-        let Some(section) = order_on_plane(pts, &plane.n) else {
-            return larger;
-        };
-        if !(section.area() >= tol.area_abs()) {
-            return larger;
+        let section = section_cycle(&bf)?;
+        // The front piece's open boundary is the section's cycle (its reverse is the back's).
+        let mut front_open = open_edges(&ff)?;
+        let mut expect: Vec<(u32, u32)> = (0..section.len())
+            .map(|k| (section[k], section[(k + 1) % section.len()]))
+            .collect();
+        front_open.sort_unstable();
+        expect.sort_unstable();
+        if front_open != expect {
+            return None;
         }
-        ff.push(section.reversed());
+        let to_poly = |ix: &[u32]| ConvexPolygon::new(ix.iter().map(|&i| pos[i as usize]).collect());
+        let section = to_poly(&section);
+        // Oriented along the plane normal, and not a sliver.
+        if !(dot(&section.area_vector(), &plane.n) > 0.0) || !(section.area() >= tol.area_abs()) {
+            return None;
+        }
+        let mut fpoly: Vec<ConvexPolygon> = ff.iter().map(|f| to_poly(f)).collect();
+        let mut bpoly: Vec<ConvexPolygon> = bf.iter().map(|f| to_poly(f)).collect();
+        fpoly.push(section.reversed());
         ft.push(new_tag);
         fo.push(None);
-        bf.push(section.clone());
+        bpoly.push(section.clone());
         bt.push(new_tag);
         bo.push(None);
-        let front = ConvexPolyhedron { faces: ff, tags: ft };
-        let back = ConvexPolyhedron { faces: bf, tags: bt };
-        let (vf, vb) = (front.volume(), back.volume());
-        if !(vf.min(vb) >= min_volume(tol)) {
-            return if vf >= vb { Cut::Front } else { Cut::Back };
+        let front = ConvexPolyhedron { faces: fpoly, tags: ft };
+        let back = ConvexPolyhedron { faces: bpoly, tags: bt };
+        if front.check(tol).is_err() || back.check(tol).is_err() {
+            return None;
         }
-        Cut::Split(Box::new(PolyhedronSplit {
+        Some(PolyhedronSplit {
             front,
             back,
             section,
             front_origin: fo,
             back_origin: bo,
-        }))
+            on_dist: cl.eps,
+        })
     }
 
     /// Subdivide face `i` into two coplanar patches along `plane` (typically: the cell
@@ -375,7 +455,20 @@ impl ConvexPolyhedron {
         front_tag: u32,
         back_tag: u32,
     ) -> Option<usize> {
-        let cl = Classifier::new(plane, tol);
+        self.split_face_within(i, plane, tol.plane_abs(), front_tag, back_tag)
+    }
+
+    /// [`split_face`](Self::split_face) with vertices within `on_dist` of the plane on it
+    /// (the [`PolyhedronSplit::on_dist`] of the cut being propagated).
+    pub fn split_face_within(
+        &mut self,
+        i: usize,
+        plane: &Plane,
+        on_dist: f64,
+        front_tag: u32,
+        back_tag: u32,
+    ) -> Option<usize> {
+        let cl = Classifier::with_eps(plane, on_dist);
         let v = self.faces[i].verts.clone();
         let ds: Vec<f64> = v.iter().map(|p| cl.dist(p)).collect();
         let sides: Vec<Side> = ds.iter().map(|&d| cl.side_of(d)).collect();
@@ -446,12 +539,18 @@ impl ConvexPolyhedron {
                 *edges.entry((a, b)).or_default() += 1;
             }
         }
-        for (&(a, b), &c) in &edges {
-            if c != 1 {
-                return Err(format!("directed edge {a:?}->{b:?} used {c} times"));
-            }
-            if edges.get(&(b, a)) != Some(&1) {
-                return Err(format!("edge {a:?}->{b:?} has no reverse (open or T-junction)"));
+        // In face order (not the map's), so the first violation reported is deterministic.
+        for f in &self.faces {
+            let n = f.verts.len();
+            for k in 0..n {
+                let (a, b) = (key(&f.verts[k]), key(&f.verts[(k + 1) % n]));
+                let c = edges[&(a, b)];
+                if c != 1 {
+                    return Err(format!("directed edge {a:?}->{b:?} used {c} times"));
+                }
+                if edges.get(&(b, a)) != Some(&1) {
+                    return Err(format!("edge {a:?}->{b:?} has no reverse (open or T-junction)"));
+                }
             }
         }
         let vol = self.volume();
@@ -472,22 +571,52 @@ impl ConvexPolyhedron {
     }
 }
 
-/// Order points lying on a plane (the boundary points of a convex cross-section)
-/// counter-clockwise around the normal `n`, by angle about their mean. `None` for fewer
-/// than 3 points or a degenerate normal.
-fn order_on_plane(pts: Vec<P3>, n: &P3) -> Option<ConvexPolygon> {
-    if pts.len() < 3 {
+/// Directed edges of index faces that have no reverse, or `None` when some directed edge
+/// is used twice or a face repeats a vertex consecutively (not a manifold surface).
+fn open_edges(faces: &[Vec<u32>]) -> Option<Vec<(u32, u32)>> {
+    let mut edges: HashSet<(u32, u32)> = HashSet::new();
+    let mut order: Vec<(u32, u32)> = Vec::new();
+    for f in faces {
+        if f.len() < 3 {
+            return None;
+        }
+        for k in 0..f.len() {
+            let e = (f[k], f[(k + 1) % f.len()]);
+            if e.0 == e.1 || !edges.insert(e) {
+                return None;
+            }
+            order.push(e);
+        }
+    }
+    Some(order.into_iter().filter(|&(a, b)| !edges.contains(&(b, a))).collect())
+}
+
+/// The cross-section of a cut as one index cycle: the reversed open boundary of the back
+/// piece's faces, which must form a single simple cycle of at least 3 vertices. Starts at
+/// the smallest index, so the result does not depend on face order.
+fn section_cycle(back: &[Vec<u32>]) -> Option<Vec<u32>> {
+    let open = open_edges(back)?;
+    if open.len() < 3 {
         return None;
     }
-    let (i, j, _) = axes(n)?;
-    let o = pts[0];
-    let uv: Vec<[f64; 2]> = pts.iter().map(|p| [p[i] - o[i], p[j] - o[j]]).collect();
-    let m = uv.len() as f64;
-    let c = uv.iter().fold([0.0, 0.0], |s, p| [s[0] + p[0] / m, s[1] + p[1] / m]);
-    let ang: Vec<f64> = uv.iter().map(|p| (p[1] - c[1]).atan2(p[0] - c[0])).collect();
-    let mut idx: Vec<usize> = (0..pts.len()).collect();
-    idx.sort_by(|&a, &b| ang[a].total_cmp(&ang[b]).then(a.cmp(&b)));
-    Some(ConvexPolygon::new(idx.into_iter().map(|k| pts[k]).collect()))
+    // Section edges run b -> a for each open edge a -> b.
+    let mut next: HashMap<u32, u32> = HashMap::with_capacity(open.len());
+    for &(a, b) in &open {
+        if next.insert(b, a).is_some() {
+            return None; // a vertex where the boundary touches itself
+        }
+    }
+    let start = *next.keys().min()?;
+    let mut cycle = vec![start];
+    let mut cur = next[&start];
+    while cur != start {
+        if cycle.len() >= open.len() {
+            return None;
+        }
+        cycle.push(cur);
+        cur = *next.get(&cur)?;
+    }
+    (cycle.len() == open.len()).then_some(cycle)
 }
 
 #[cfg(test)]
@@ -905,7 +1034,10 @@ mod tests {
                 }
                 assert!(splits > 20, "{}: {splits}", fr.name);
                 let v: f64 = pieces.iter().map(|p| p.volume()).sum();
-                assert_close(v, v0, 1e-9, fr.name);
+                // Vertices within the weld distance of a plane are On (`Tolerances::snap_abs`),
+                // so a section may be non-planar by up to that distance and a face later split
+                // across it changes its fan volume by ~weld × area: 1e-8, not 1e-9.
+                assert_close(v, v0, 1e-8, fr.name);
             }
         }
     }

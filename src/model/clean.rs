@@ -223,6 +223,23 @@ pub(crate) fn clean(name: &str, file: &str, soup: Soup) -> Result<Model, ModelEr
                 nonplanar,
                 fallback,
             } => {
+                // A non-planar polygon whose outline crosses itself in projection has no
+                // meaningful triangulation: a best-effort one is a fan of crossing slivers
+                // (a face of 1000 random vertex indices gave ~300 triangles and ~190k cells),
+                // so refuse it, naming it, rather than pay for garbage. (A planar polygon
+                // touching itself, e.g. a keyhole around a hole, is still triangulated
+                // best-effort.)
+                if fallback && nonplanar {
+                    return Err(ModelError::Malformed {
+                        file: file.into(),
+                        line: rp.source.line.unwrap_or(0),
+                        element: format!("face {} (0-based)", rp.source.element),
+                        expected: "a simple polygon (its outline must not cross itself; split it into \
+                                   simple polygons)"
+                            .into(),
+                        found: format!("{} non-coplanar vertices whose outline crosses itself", vs.len()),
+                    });
+                }
                 report.nonplanar_or_nonconvex_triangulated += 1;
                 report.nonplanar_polygons += nonplanar as usize;
                 report.triangulation_fallbacks += fallback as usize;
