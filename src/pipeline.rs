@@ -224,6 +224,18 @@ pub enum PipelineError {
         #[source]
         source: DelaunayError,
     },
+    /// The cell complex came out invalid (a bug or an input it cannot handle yet): the
+    /// run stops rather than decimate a broken complex.
+    #[error(
+        "the cell complex of {model} is invalid; please report the model (`portalfind complex MODEL` prints the full validation)"
+    )]
+    InvalidComplex {
+        /// The model's path or name.
+        model: String,
+        /// The first violated invariant.
+        #[source]
+        source: crate::complex::ComplexError,
+    },
     /// The result document cannot be assembled.
     #[error(transparent)]
     Output(#[from] OutputError),
@@ -253,9 +265,33 @@ pub fn complex_of(model: &Model) -> Result<CellComplex, PipelineError> {
     Ok(build_cells(model, &label, &CellSettings::default(), &mut |_| {})?.cx)
 }
 
+/// [`complex_of`] without the structural check (the caller checks and reports).
+pub fn complex_of_unchecked(model: &Model) -> Result<CellComplex, PipelineError> {
+    let label = std::path::PathBuf::from(&model.name);
+    Ok(build_cells_unchecked(model, &label, &CellSettings::default(), &mut |_| {})?.cx)
+}
+
 /// The one dispatch on the subdivision: the cell complex of `model`. `label` names the
 /// model in errors (its path).
 pub fn build_cells(
+    model: &Model,
+    label: &Path,
+    settings: &CellSettings,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Cells, PipelineError> {
+    let cells = build_cells_unchecked(model, label, settings, progress)?;
+    // The cheap structural check on every build: never decimate (or write) a broken
+    // complex. The full validation (`CellComplex::validate`) is `portalfind complex`'s.
+    cells.cx.check_valid().map_err(|source| PipelineError::InvalidComplex {
+        model: label.display().to_string(),
+        source,
+    })?;
+    Ok(cells)
+}
+
+/// [`build_cells`] without the structural check (for `portalfind complex`, which runs the
+/// full validation and reports every violation itself).
+pub fn build_cells_unchecked(
     model: &Model,
     label: &Path,
     settings: &CellSettings,

@@ -29,6 +29,9 @@ pub struct CaseResult {
     pub complex_cells: usize,
     /// Leaks the complex reported.
     pub leaks: usize,
+    /// Whether the complex passed the structural check (`CellComplex::check_valid`); an
+    /// invalid one is still decimated and scored here, so the table shows what it costs.
+    pub valid: bool,
     /// Scores.
     pub accuracy: Accuracy,
     /// Seconds: loading and cleaning.
@@ -122,11 +125,12 @@ pub fn run_case_with(case: &SuiteCase, settings: &Settings, opts: &MetricOptions
     })?;
     let seconds_load = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let cx = crate::pipeline::complex_of(&model).map_err(|source| SuiteError::Cells {
+    let cx = crate::pipeline::complex_of_unchecked(&model).map_err(|source| SuiteError::Cells {
         case: case.name.clone(),
         source,
     })?;
     let seconds_complex = t.elapsed().as_secs_f64();
+    let valid = cx.check_valid().is_ok();
     let t = Instant::now();
     let dec = Decimation::run(&cx, settings);
     let seconds_decimate = t.elapsed().as_secs_f64();
@@ -142,6 +146,7 @@ pub fn run_case_with(case: &SuiteCase, settings: &Settings, opts: &MetricOptions
         triangles: model.triangle_count(),
         complex_cells: cx.active_cells().count(),
         leaks: cx.leaks.len(),
+        valid,
         accuracy,
         seconds_load,
         seconds_complex,
@@ -239,11 +244,12 @@ pub fn run_cases(
         })?;
         let seconds_load = t.elapsed().as_secs_f64();
         let t = Instant::now();
-        let cx = crate::pipeline::complex_of(&model).map_err(|source| SuiteError::Cells {
+        let cx = crate::pipeline::complex_of_unchecked(&model).map_err(|source| SuiteError::Cells {
             case: case.name.clone(),
             source,
         })?;
         let seconds_complex = t.elapsed().as_secs_f64();
+        let valid = cx.check_valid().is_ok();
         for c in configs {
             let settings = c.settings(case);
             let t = Instant::now();
@@ -260,6 +266,7 @@ pub fn run_cases(
                 triangles: model.triangle_count(),
                 complex_cells: cx.active_cells().count(),
                 leaks: cx.leaks.len(),
+                valid,
                 accuracy,
                 seconds_load,
                 seconds_complex,
@@ -425,6 +432,7 @@ pub fn write_csv(results: &[CaseResult], w: impl std::io::Write) -> Result<()> {
         "triangles",
         "complex_cells",
         "leaks",
+        "valid",
         "rooms",
         "final_cells",
         "rooms_isolated",
@@ -455,6 +463,7 @@ pub fn write_csv(results: &[CaseResult], w: impl std::io::Write) -> Result<()> {
             r.triangles.to_string(),
             r.complex_cells.to_string(),
             r.leaks.to_string(),
+            r.valid.to_string(),
             a.rooms.to_string(),
             a.final_cells.to_string(),
             a.rooms_isolated.to_string(),
