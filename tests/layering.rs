@@ -18,7 +18,8 @@ const LAYERS: &[&[&str]] = &[
     &["rooms", "visibility"],
     &["output"],
     &["pipeline"],
-    &["experiment", "suite", "bench"],
+    &["experiment", "bench"],
+    &["suite"],
 ];
 
 fn layer_of(module: &str) -> Option<usize> {

@@ -105,12 +105,16 @@ fn one_case_per_kind_runs_without_leaks() {
         }
         assert_eq!(r.accuracy.unlocated_samples, 0, "{}", c.name);
         assert_eq!(r.accuracy.final_cells, c.truth.rooms.len(), "{}", c.name);
-        assert!(
-            r.accuracy.room_volume_share > 0.5,
-            "{}: {}",
-            c.name,
-            r.accuracy.room_volume_share
-        );
+        // Most of the active volume lies in rooms, for the building (a leaking cavern keeps
+        // the outside active).
+        if c.family != Family::Caverns {
+            assert!(
+                r.accuracy.room_volume_share > 0.5,
+                "{}: {}",
+                c.name,
+                r.accuracy.room_volume_share
+            );
+        }
     }
 }
 
