@@ -219,6 +219,18 @@ fn main() -> std::process::ExitCode {
     install_interrupt_handler();
     match run(Cli::parse()) {
         Ok(()) => std::process::ExitCode::SUCCESS,
+        // The interrupt handler exits with 130 too; this may finish first.
+        Err(e)
+            if e.chain().any(|c| {
+                matches!(
+                    c.downcast_ref::<portalfind::output::OutputError>(),
+                    Some(portalfind::output::OutputError::Interrupted)
+                )
+            }) =>
+        {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::from(130)
+        }
         Err(e) => {
             eprintln!("error: {e:#}");
             std::process::ExitCode::FAILURE
