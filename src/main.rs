@@ -47,6 +47,8 @@ enum Cmd {
         no_validate: bool,
         /// If the model leaks, write the first leak's path here, one `x y z` point per line
         /// (qbsp's pointfile format: load it in TrenchBroom to see where the model is open).
+        /// With no leak, a stale pointfile there is removed. A file there that is not a
+        /// pointfile is never overwritten or removed.
         #[arg(long)]
         pointfile: Option<PathBuf>,
         /// How cells are made: delaunay (the thesis's method: tetrahedra split by the
@@ -87,8 +89,10 @@ enum Cmd {
         /// none (one cell per connected region; records the whole weight curve).
         #[arg(long, default_value = "threshold:3")]
         stop: portalfind::decimate::StopRule,
-        /// Output directory (created, with missing parents, if it does not exist; a run
-        /// that fails removes the directories it created).
+        /// Output directory (created, with missing parents, if it does not exist). The files
+        /// are one set, swapped in whole with manifest.json last: a failed or interrupted
+        /// run leaves it as it was; a rerun replaces the previous run's set; other files
+        /// stay, and files named like outputs that no manifest lists make the run refuse.
         #[arg(long)]
         out: PathBuf,
         /// How cells are made: delaunay (the thesis's method: tetrahedra split by the
