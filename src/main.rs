@@ -47,6 +47,8 @@ enum Cmd {
         no_validate: bool,
         /// If the model leaks, write the first leak's path here, one `x y z` point per line
         /// (qbsp's pointfile format: load it in TrenchBroom to see where the model is open).
+        /// With no leak, a stale pointfile there is removed. A file there that is not a
+        /// pointfile is never overwritten or removed.
         #[arg(long)]
         pointfile: Option<PathBuf>,
         /// How cells are made: delaunay (the thesis's method: tetrahedra split by the
@@ -94,8 +96,10 @@ enum Cmd {
         /// weights depend on the model's scale).
         #[arg(long)]
         stop: Option<portalfind::decimate::StopRule>,
-        /// Output directory (created, with missing parents, if it does not exist; a run
-        /// that fails removes the directories it created).
+        /// Output directory (created, with missing parents, if it does not exist). The files
+        /// are one set, swapped in whole with manifest.json last: a failed or interrupted
+        /// run leaves it as it was; a rerun replaces the previous run's set; other files
+        /// stay, and files named like outputs that no manifest lists make the run refuse.
         #[arg(long)]
         out: PathBuf,
         /// How cells are made: delaunay (the thesis's method: tetrahedra split by the
@@ -289,12 +293,39 @@ fn bench_accuracy(
 /// Errors are printed as their context chain (file, line, element, fix), without a
 /// backtrace even when `RUST_BACKTRACE` is set, and exit with status 1.
 fn main() -> std::process::ExitCode {
+    install_interrupt_handler();
     match run(Cli::parse()) {
         Ok(()) => std::process::ExitCode::SUCCESS,
+        // The interrupt handler exits with 130 too; this may finish first.
+        Err(e)
+            if e.chain().any(|c| {
+                matches!(
+                    c.downcast_ref::<portalfind::output::OutputError>(),
+                    Some(portalfind::output::OutputError::Interrupted)
+                )
+            }) =>
+        {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::from(130)
+        }
         Err(e) => {
             eprintln!("error: {e:#}");
             std::process::ExitCode::FAILURE
         }
+    }
+}
+
+/// On Ctrl-C (SIGINT) or SIGTERM: stop output writing (a run's set that is not yet swapped
+/// in is removed, with the directories its writing created), then exit with status 130.
+/// Nothing else is on disk before outputs are written.
+fn install_interrupt_handler() {
+    let r = ctrlc::set_handler(|| {
+        let _no_more_writes = portalfind::output::interrupt();
+        eprintln!("interrupted: no output of this run was left half written");
+        std::process::exit(130);
+    });
+    if let Err(e) = r {
+        eprintln!("warning: cannot handle Ctrl-C ({e}); an interrupted run may leave a hidden staging directory");
     }
 }
 
@@ -593,21 +624,8 @@ fn complex(
             l.hull_point[2]
         );
     }
-    if let (Some(pf), Some(leak)) = (pointfile, cx.leaks.first()) {
-        let text: String = cx
-            .leak_pointfile(leak)
-            .iter()
-            .map(|p| format!("{} {} {}\n", p[0], p[1], p[2]))
-            .collect();
-        portalfind::model::write::write_atomic(pf, text.as_bytes())
-            .with_context(|| format!("cannot write {}", pf.display()))?;
-        println!("wrote the leak path to {}", pf.display());
-    } else if let Some(pf) = pointfile
-        && pf.exists()
-    {
-        // As qbsp does: no leak, so a pointfile from an earlier run must not linger.
-        std::fs::remove_file(pf).with_context(|| format!("cannot remove stale {}", pf.display()))?;
-        println!("no leak: removed the stale pointfile {}", pf.display());
+    if let Some(pf) = pointfile {
+        write_or_clear_pointfile(pf, cx.leaks.first().map(|l| cx.leak_pointfile(l)))?;
     }
     if cx.stats.active_cells == 0 {
         report_leaks_and_orientation(&cx);
@@ -724,22 +742,68 @@ fn bench_delaunay(sizes: &[usize], kinds: &[String], json: Option<PathBuf>, repe
     Ok(())
 }
 
-/// Runs `f` with the output directory `out` created (with missing parents); if `f` fails,
-/// removes the directories this call created (the writers already leave no files behind).
+/// Runs `f`, which writes a run's outputs into `out` as one set
+/// (`portalfind::output::write_run`: staged beside `out`, swapped in, `manifest.json` last;
+/// on an error `out` is as it was and the directories the writing created are removed).
+/// First refuses, before any work, an `out` the run could not write into (a file, or a
+/// directory holding files named like outputs that no manifest of ours lists). Creates
+/// nothing itself.
 fn with_output_dir(out: &std::path::Path, f: impl FnOnce() -> Result<()>) -> Result<()> {
-    let created: Vec<&std::path::Path> = out
-        .ancestors()
-        .take_while(|a| !a.as_os_str().is_empty() && !a.exists())
-        .collect();
-    std::fs::create_dir_all(out).with_context(|| format!("cannot create output directory {}", out.display()))?;
-    let r = f();
-    if r.is_err() {
-        // Innermost first; `remove_dir` only removes empty directories.
-        for d in created {
-            let _ = std::fs::remove_dir(d);
+    portalfind::output::check_output_dir(out, &portalfind::output::SetOptions::default())?;
+    f()
+}
+
+/// Whether `text` is a pointfile as `complex --pointfile` writes it: at least one line,
+/// every line three finite numbers separated by spaces.
+fn looks_like_pointfile(text: &str) -> bool {
+    let mut lines = 0;
+    for l in text.lines() {
+        let xs: Vec<&str> = l.split(' ').collect();
+        if xs.len() != 3 || !xs.iter().all(|x| x.parse::<f64>().is_ok_and(f64::is_finite)) {
+            return false;
         }
+        lines += 1;
     }
-    r
+    lines > 0
+}
+
+/// Writes the leak path `points` to the pointfile `pf`, or with no leak removes a stale
+/// pointfile there (as qbsp does). Either way a file at `pf` that is not a pointfile of
+/// ours (such as the model itself) is never overwritten or removed: writing refuses, and
+/// with no leak it is left alone with a note.
+fn write_or_clear_pointfile(pf: &std::path::Path, points: Option<Vec<[f64; 3]>>) -> Result<()> {
+    const MAX_POINTFILE_BYTES: u64 = 64 << 20;
+    let ours = match std::fs::symlink_metadata(pf) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+        Err(e) => return Err(e).with_context(|| format!("cannot inspect {}", pf.display())),
+        Ok(md) => Some(
+            md.is_file()
+                && md.len() <= MAX_POINTFILE_BYTES
+                && std::fs::read_to_string(pf).is_ok_and(|t| looks_like_pointfile(&t)),
+        ),
+    };
+    match (points, ours) {
+        (Some(_), Some(false)) => bail!(
+            "{} exists and is not a pointfile (lines of `x y z`); refusing to overwrite it: \
+             give --pointfile a new file name",
+            pf.display()
+        ),
+        (Some(points), _) => {
+            let text: String = points.iter().map(|p| format!("{} {} {}\n", p[0], p[1], p[2])).collect();
+            portalfind::model::write::write_atomic(pf, text.as_bytes())
+                .with_context(|| format!("cannot write {}", pf.display()))?;
+            println!("wrote the leak path to {}", pf.display());
+        }
+        (None, Some(true)) => {
+            std::fs::remove_file(pf).with_context(|| format!("cannot remove stale {}", pf.display()))?;
+            println!("no leak: removed the stale pointfile {}", pf.display());
+        }
+        (None, Some(false)) => {
+            println!("no leak: left {} alone (it is not a pointfile)", pf.display());
+        }
+        (None, None) => {}
+    }
+    Ok(())
 }
 
 fn run_decimation(
@@ -814,7 +878,15 @@ fn run_decimation(
         .iter()
         .map(|&n| portalfind::output::snapshot(&m, path, &cx, &dec, n))
         .collect::<Result<Vec<_>, _>>()?;
-    let files = portalfind::output::write_outputs_with_snapshots(out, &m, &doc, &dec, &snapshots)?;
+    let written = portalfind::output::write_run(
+        out,
+        &m,
+        &doc,
+        &dec,
+        &snapshots,
+        &portalfind::output::SetOptions::default(),
+    )?;
+    let files = &written.files;
     stages.push(("write outputs".into(), t3.elapsed().as_secs_f64()));
     println!("{:<44}{:>10}", "stage", "seconds");
     for (name, secs) in &stages {
@@ -868,6 +940,16 @@ fn run_decimation(
     }
     for f in files {
         println!("wrote {}", f.display());
+    }
+    println!("wrote {}", out.join(portalfind::output::MANIFEST_FILE).display());
+    if !written.removed.is_empty() {
+        println!("removed the previous run's {}", written.removed.join(", "));
+    }
+    if !written.foreign.is_empty() {
+        println!("left alone, not written by portalfind: {}", written.foreign.join(", "));
+    }
+    for d in &written.swept {
+        println!("removed an interrupted run's staging directory {}", d.display());
     }
     report_leaks_and_orientation(&cx);
     Ok(())

@@ -265,10 +265,13 @@ fn failed_writes_leave_no_partial_files_and_bad_schemas_are_refused() {
     let (m, cx, d) = two_rooms_run(StopRule::Cells(3));
     let doc = output::result_doc(&m, Path::new("x.obj"), &cx, &d, &[]).unwrap();
     let dir = tmp_dir("fail");
-    // A directory where the CSV should go: renaming onto it fails.
+    // A directory where the CSV should go: not a file of an earlier run, so the write is
+    // refused before anything is written.
     std::fs::create_dir_all(dir.join("weight_curve.csv").join("blocker")).unwrap();
-    assert!(output::write_outputs(&dir, &m, &doc, &d).is_err());
+    let err = output::write_outputs(&dir, &m, &doc, &d).unwrap_err().to_string();
+    assert!(err.contains("already holds weight_curve.csv"), "{err}");
     assert!(no_temp_files(&dir), "temporary files left behind");
+    assert!(dir.join("weight_curve.csv/blocker").is_dir());
     assert!(!dir.join("weight_curve.png").exists(), "later files not written");
     assert!(!dir.join("result.json").exists(), "a failed run leaves no result.json");
     // Remove the blocker: now the whole set is written; then tamper with the version.
@@ -281,6 +284,10 @@ fn failed_writes_leave_no_partial_files_and_bad_schemas_are_refused() {
         text.replacen("\"schema_version\":1", "\"schema_version\":99", 1),
     )
     .unwrap();
+    let err = output::read_result(&dir).unwrap_err().to_string();
+    assert!(err.contains("does not match its directory's manifest.json"), "{err}");
+    // Without a manifest (output of an earlier version) the schema check still refuses it.
+    std::fs::remove_file(dir.join("manifest.json")).unwrap();
     let err = output::read_result(&dir).unwrap_err().to_string();
     assert!(err.contains("v99"), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
@@ -468,4 +475,385 @@ fn point_files_with_non_finite_values_or_no_points_are_errors() {
         vec![[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]]
     );
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+// ---- Outputs are all-or-nothing (issue 16, "Files lost or mixed") ----
+
+const EXE: &str = env!("CARGO_BIN_EXE_portalfind");
+
+/// Every file under `dir` with its content (directories as `name/`).
+fn contents(dir: &Path) -> std::collections::BTreeMap<String, Vec<u8>> {
+    let mut m = std::collections::BTreeMap::new();
+    for e in std::fs::read_dir(dir).unwrap() {
+        let e = e.unwrap();
+        let name = e.file_name().to_string_lossy().into_owned();
+        if e.file_type().unwrap().is_dir() {
+            for (k, v) in contents(&e.path()) {
+                m.insert(format!("{name}/{k}"), v);
+            }
+            m.insert(format!("{name}/"), Vec::new());
+        } else {
+            m.insert(name, std::fs::read(e.path()).unwrap());
+        }
+    }
+    m
+}
+
+/// Hidden entries (staging directories, temporary files) directly in `dir`.
+fn hidden(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with('.'))
+        .collect()
+}
+
+fn pf(args: &[&str], dir: &Path, envs: &[(&str, &str)]) -> std::process::Output {
+    let mut c = Command::new(EXE);
+    c.args(args).current_dir(dir);
+    for (k, v) in envs {
+        c.env(k, v);
+    }
+    c.output().unwrap()
+}
+
+fn text(o: &std::process::Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+/// `two_rooms` as OBJ in `dir`, optionally moved by `dx` (a different model, same shape).
+fn two_rooms_obj(dir: &Path, name: &str, dx: f64) -> PathBuf {
+    let mut s = scenes::two_rooms();
+    for v in &mut s.vertices {
+        v[0] += dx;
+    }
+    let p = dir.join(name);
+    write_obj(&s, &p);
+    p
+}
+
+/// A failed run leaves every file that was in DIR before: a user's files with output names
+/// make the run refuse before it computes anything; a run failing after the computation
+/// (a snapshot count never reached) leaves the previous run's set as it was.
+#[test]
+fn a_failed_run_never_deletes_files_that_were_in_dir_before() {
+    let base = tmp_dir("keep-user-files");
+    two_rooms_obj(&base, "m.obj", 0.0);
+    let out = base.join("out");
+    std::fs::create_dir_all(&out).unwrap();
+    for (f, t) in [
+        ("cells.svg", "my drawing"),
+        ("weight_curve.csv", "my,data"),
+        ("weight_curve.png", "png"),
+        ("notes.txt", "mine"),
+    ] {
+        std::fs::write(out.join(f), t).unwrap();
+    }
+    let before = contents(&out);
+    let o = pf(&["run", "m.obj", "--stop", "cells:2", "--out", "out"], &base, &[]);
+    assert!(!o.status.success());
+    let msg = text(&o);
+    assert!(
+        msg.contains("cells.svg, weight_curve.csv, weight_curve.png") && msg.contains("nothing was written"),
+        "{msg}"
+    );
+    assert!(!msg.contains("loaded"), "refused before the work: {msg}");
+    assert_eq!(contents(&out), before);
+    assert!(hidden(&base).is_empty());
+
+    // A previous run's set, then a run that fails after the computation.
+    let out2 = base.join("out2");
+    let o = pf(&["run", "m.obj", "--stop", "cells:2", "--out", "out2"], &base, &[]);
+    assert!(o.status.success(), "{}", text(&o));
+    std::fs::write(out2.join("notes.txt"), "mine").unwrap();
+    let before = contents(&out2);
+    let o = pf(
+        &["run", "m.obj", "--stop", "cells:2", "--snapshots", "1", "--out", "out2"],
+        &base,
+        &[],
+    );
+    assert!(!o.status.success());
+    assert!(text(&o).contains("snapshot at 1 cells"), "{}", text(&o));
+    assert_eq!(contents(&out2), before);
+    output::check_run(&out2).unwrap();
+    assert!(hidden(&base).is_empty() && hidden(&out2).is_empty());
+    std::fs::remove_dir_all(&base).unwrap();
+}
+
+/// Fails like a full disk: writes part of a file into the staging directory, then errors.
+struct DiskFull;
+
+impl output::Exporter for DiskFull {
+    fn name(&self) -> &'static str {
+        "disk filler"
+    }
+    fn files(&self, _: &output::ExportContext<'_>) -> Vec<String> {
+        vec!["big.bin".into()]
+    }
+    fn owns(&self, f: &str) -> bool {
+        f == "big.bin"
+    }
+    fn write(&self, ctx: &output::ExportContext<'_>) -> Result<Vec<PathBuf>, output::OutputError> {
+        let p = ctx.dir.join("big.bin");
+        output::write_atomic(&p, |tmp| {
+            std::fs::write(tmp, vec![0u8; 4096])?;
+            Err(std::io::Error::other("No space left on device (os error 28)"))
+        })?;
+        Ok(vec![p])
+    }
+}
+
+/// On disk-full (an exporter failing halfway), the previous run's set stays whole and
+/// verified, and nothing of the failed run is left beside it.
+#[test]
+fn disk_full_while_writing_keeps_the_previous_set() {
+    let (m, cx, d) = two_rooms_run(StopRule::Cells(2));
+    let doc = output::result_doc(&m, Path::new("two_rooms.obj"), &cx, &d, &[]).unwrap();
+    let base = tmp_dir("disk-full");
+    let dir = base.join("out");
+    output::write_outputs(&dir, &m, &doc, &d).unwrap();
+    let before = contents(&dir);
+    let (m3, cx3, d3) = two_rooms_run(StopRule::Cells(3));
+    let doc3 = output::result_doc(&m3, Path::new("other.obj"), &cx3, &d3, &[]).unwrap();
+    let mut list = output::exporters();
+    list.insert(1, Box::new(DiskFull));
+    let err = output::write_run_with(&list, &dir, &m3, &doc3, &d3, &[], &Default::default()).unwrap_err();
+    let chain = format!("{err}: {}", std::error::Error::source(&err).unwrap());
+    assert!(chain.contains("big.bin") && chain.contains("No space left"), "{chain}");
+    assert_eq!(contents(&dir), before);
+    assert_eq!(output::check_run(&dir).unwrap().files.len(), 4);
+    assert_eq!(output::read_result(&dir).unwrap().cells.len(), 2);
+    assert!(hidden(&base).is_empty(), "{:?}", hidden(&base));
+    // Into a new directory: nothing at all is left, not even the directory.
+    let fresh = base.join("a").join("b");
+    assert!(output::write_run_with(&list, &fresh, &m3, &doc3, &d3, &[], &Default::default()).is_err());
+    assert!(!base.join("a").exists());
+    std::fs::remove_dir_all(&base).unwrap();
+}
+
+/// A process killed between the renames of the swap leaves `manifest.json` marked
+/// incomplete: `locate` refuses the directory instead of reading a result beside a weight
+/// curve of another model, and the next run replaces the whole mixed set and sweeps the
+/// killed run's staging directory.
+#[test]
+fn a_kill_between_renames_leaves_a_set_that_locate_refuses() {
+    let base = tmp_dir("kill-renames");
+    two_rooms_obj(&base, "a.obj", 0.0);
+    two_rooms_obj(&base, "b.obj", 100.0);
+    let pts = base.join("p.csv");
+    std::fs::write(&pts, "x,y,z\n101,1,1\n").unwrap();
+    let o = pf(&["run", "a.obj", "--stop", "cells:2", "--out", "out"], &base, &[]);
+    assert!(o.status.success(), "{}", text(&o));
+    for k in ["1", "3"] {
+        let o = pf(
+            &["run", "b.obj", "--stop", "cells:2", "--out", "out"],
+            &base,
+            &[("PF_FAULT_ABORT_AFTER_RENAMES", k)],
+        );
+        assert!(!o.status.success() && o.status.code().is_none(), "killed by a signal");
+        let m = output::read_manifest(&base.join("out")).unwrap().unwrap();
+        assert!(!m.complete);
+        let o = pf(&["locate", "out", "p.csv"], &base, &[]);
+        assert!(!o.status.success());
+        assert!(text(&o).contains("incomplete run"), "{}", text(&o));
+        assert_eq!(o.stdout.len(), 0);
+        assert!(hidden(&base).iter().any(|h| h.starts_with(".out.portalfind-")));
+    }
+    let o = pf(&["run", "b.obj", "--stop", "cells:2", "--out", "out"], &base, &[]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(text(&o).contains("removed an interrupted run's staging directory"));
+    assert!(hidden(&base).is_empty(), "{:?}", hidden(&base));
+    let m = output::check_run(&base.join("out")).unwrap();
+    let mut names: Vec<String> = m.files.iter().map(|f| f.name.clone()).collect();
+    names.push("manifest.json".into());
+    names.sort();
+    let mut present: Vec<String> = contents(&base.join("out")).into_keys().collect();
+    present.sort();
+    assert_eq!(names, present);
+    assert!(
+        output::read_result(&base.join("out"))
+            .unwrap()
+            .model
+            .path
+            .ends_with("b.obj")
+    );
+    let o = pf(&["locate", "out", "p.csv"], &base, &[]);
+    assert!(o.status.success(), "{}", text(&o));
+    std::fs::remove_dir_all(&base).unwrap();
+}
+
+/// `complex --pointfile PATH` never deletes or overwrites a file that is not a pointfile:
+/// with no leak it removes only a stale pointfile of ours; with a leak it refuses to
+/// overwrite anything else (the input model given by mistake, a text file).
+#[test]
+fn complex_pointfile_never_deletes_a_file_it_did_not_write() {
+    let base = tmp_dir("pointfile");
+    two_rooms_obj(&base, "closed.obj", 0.0);
+    let model = std::fs::read(base.join("closed.obj")).unwrap();
+    std::fs::write(base.join("notes.txt"), "1 2 3 are my numbers\n").unwrap();
+    std::fs::write(base.join("old.pts"), "1 2 3\n4.5 -6 7e-3\n").unwrap();
+    for f in ["closed.obj", "notes.txt"] {
+        let o = pf(
+            &["complex", "closed.obj", "--no-validate", "--pointfile", f],
+            &base,
+            &[],
+        );
+        assert!(o.status.success(), "{}", text(&o));
+        assert!(text(&o).contains("not a pointfile"), "{}", text(&o));
+    }
+    assert_eq!(std::fs::read(base.join("closed.obj")).unwrap(), model);
+    assert!(base.join("notes.txt").is_file());
+    let o = pf(
+        &["complex", "closed.obj", "--no-validate", "--pointfile", "old.pts"],
+        &base,
+        &[],
+    );
+    assert!(o.status.success() && text(&o).contains("removed the stale pointfile"));
+    assert!(!base.join("old.pts").exists());
+
+    // A leaking model (one polygon of the closed one removed).
+    let mut s = scenes::two_rooms();
+    s.polygons.remove(0);
+    write_obj(&s, &base.join("open.obj"));
+    let open = std::fs::read(base.join("open.obj")).unwrap();
+    for f in ["open.obj", "notes.txt"] {
+        let o = pf(&["complex", "open.obj", "--no-validate", "--pointfile", f], &base, &[]);
+        assert!(!o.status.success());
+        assert!(text(&o).contains("refusing to overwrite"), "{}", text(&o));
+    }
+    assert_eq!(std::fs::read(base.join("open.obj")).unwrap(), open);
+    assert_eq!(
+        std::fs::read_to_string(base.join("notes.txt")).unwrap(),
+        "1 2 3 are my numbers\n"
+    );
+    for _ in 0..2 {
+        // Written, then overwritten (it is ours now).
+        let o = pf(
+            &["complex", "open.obj", "--no-validate", "--pointfile", "leak.pts"],
+            &base,
+            &[],
+        );
+        assert!(o.status.success(), "{}", text(&o));
+        let t = std::fs::read_to_string(base.join("leak.pts")).unwrap();
+        assert!(t.lines().count() >= 2, "{t}");
+    }
+    assert!(hidden(&base).is_empty());
+    std::fs::remove_dir_all(&base).unwrap();
+}
+
+/// Starts `run` into `out` (relative to `base`) stalled once its set is staged; returns the
+/// child once the staging directory exists in `parent`.
+fn stalled_run(base: &Path, out: &str, parent: &Path, name: &str) -> std::process::Child {
+    let child = Command::new(EXE)
+        .args(["run", "m.obj", "--stop", "cells:2", "--out", out])
+        .current_dir(base)
+        .env("PF_FAULT_STALL_BEFORE_COMMIT", "1")
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let t0 = std::time::Instant::now();
+    while !parent.is_dir()
+        || !hidden(parent)
+            .iter()
+            .any(|h| h.starts_with(&format!(".{name}.portalfind-")))
+    {
+        assert!(t0.elapsed().as_secs() < 120, "the run never staged its files");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child
+}
+
+fn signal(child: &std::process::Child, sig: &str) {
+    let st = Command::new("kill")
+        .args([sig, &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(st.success());
+}
+
+/// Ctrl-C (SIGINT) or SIGTERM while the outputs are being written removes what the run
+/// created — the staging directory and the nested directories made for it — and leaves an
+/// earlier run's set as it was.
+#[test]
+fn an_interrupted_run_removes_what_it_created() {
+    let base = tmp_dir("ctrl-c");
+    two_rooms_obj(&base, "m.obj", 0.0);
+    let mut child = stalled_run(&base, "a/b/c", &base.join("a/b"), "c");
+    signal(&child, "-INT");
+    let st = child.wait().unwrap();
+    assert_eq!(st.code(), Some(130));
+    assert!(!base.join("a").exists(), "created directories left behind");
+
+    let o = pf(&["run", "m.obj", "--stop", "cells:2", "--out", "out"], &base, &[]);
+    assert!(o.status.success(), "{}", text(&o));
+    let before = contents(&base.join("out"));
+    let mut child = stalled_run(&base, "out", &base, "out");
+    signal(&child, "-TERM");
+    assert_eq!(child.wait().unwrap().code(), Some(130));
+    assert_eq!(contents(&base.join("out")), before);
+    assert!(hidden(&base).is_empty(), "{:?}", hidden(&base));
+    std::fs::remove_dir_all(&base).unwrap();
+}
+
+/// A run killed outright (SIGKILL: nothing can clean up then) leaves only its hidden
+/// staging directory; the next run into the same place removes it.
+#[test]
+fn a_killed_runs_staging_directory_is_swept_by_the_next_run() {
+    let base = tmp_dir("kill-9");
+    two_rooms_obj(&base, "m.obj", 0.0);
+    let mut child = stalled_run(&base, "a/b/c", &base.join("a/b"), "c");
+    signal(&child, "-KILL");
+    child.wait().unwrap();
+    assert_eq!(hidden(&base.join("a/b")).len(), 1);
+    assert!(!base.join("a/b/c").exists());
+    let o = pf(&["run", "m.obj", "--stop", "cells:2", "--out", "a/b/c"], &base, &[]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(text(&o).contains("removed an interrupted run's staging directory"));
+    assert!(hidden(&base.join("a/b")).is_empty());
+    output::check_run(&base.join("a/b/c")).unwrap();
+    std::fs::remove_dir_all(&base).unwrap();
+}
+
+/// The previous run's set is replaced as a whole (a snapshot it drew and this run does not
+/// is removed); files that are not outputs stay and are named; a file named like an output
+/// that no manifest lists makes the run refuse.
+#[test]
+fn stale_outputs_are_replaced_as_a_set_and_foreign_files_are_left_alone() {
+    let base = tmp_dir("stale");
+    two_rooms_obj(&base, "m.obj", 0.0);
+    let (_, _, d) = two_rooms_run(StopRule::Cells(2));
+    let n = d.stats.initial_cells.to_string();
+    let snap = format!("cells_{n}.svg");
+    let o = pf(
+        &["run", "m.obj", "--stop", "cells:2", "--snapshots", &n, "--out", "out"],
+        &base,
+        &[],
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(base.join("out").join(&snap).is_file());
+    std::fs::write(base.join("out/notes.txt"), "mine").unwrap();
+    let o = pf(&["run", "m.obj", "--stop", "cells:2", "--out", "out"], &base, &[]);
+    assert!(o.status.success(), "{}", text(&o));
+    let msg = text(&o);
+    assert!(msg.contains(&format!("removed the previous run's {snap}")), "{msg}");
+    assert!(
+        msg.contains("left alone, not written by portalfind: notes.txt"),
+        "{msg}"
+    );
+    assert!(!base.join("out").join(&snap).exists(), "stale snapshot left");
+    assert_eq!(std::fs::read_to_string(base.join("out/notes.txt")).unwrap(), "mine");
+    assert_eq!(output::check_run(&base.join("out")).unwrap().files.len(), 4);
+
+    std::fs::write(base.join("out/cells_7.svg"), "<svg/>").unwrap();
+    let o = pf(&["run", "m.obj", "--stop", "cells:2", "--out", "out"], &base, &[]);
+    assert!(!o.status.success());
+    assert!(text(&o).contains("already holds cells_7.svg"), "{}", text(&o));
+    assert!(base.join("out/cells_7.svg").is_file());
+    output::check_run(&base.join("out")).unwrap();
+    std::fs::remove_dir_all(&base).unwrap();
 }

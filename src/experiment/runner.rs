@@ -106,10 +106,8 @@ pub struct Outcome {
 pub fn run_experiment(def: &Definition, root: &Path, out: &Path) -> Result<Outcome, RunError> {
     let t0 = Instant::now();
     let dir = out.join(&def.name);
-    std::fs::create_dir_all(&dir).map_err(|source| RunError::CreateDir {
-        dir: dir.clone(),
-        source,
-    })?;
+    // Refuse a directory holding foreign files with output names before the work.
+    output::check_output_dir(&dir, &set_options())?;
     let (model, truth) = load_model(def, root)?;
     let stages = vec![("load model".to_string(), t0.elapsed().as_secs_f64())];
     let model_path = PathBuf::from(def.model.to_string());
@@ -128,7 +126,8 @@ pub fn run_experiment(def: &Definition, root: &Path, out: &Path) -> Result<Outco
             file: def.file.clone(),
             source,
         })?;
-    output::write_outputs_with_snapshots(&dir, &model, &p.doc, &p.dec, &snapshots)?;
+    // One set, swapped in whole; `evaluation.json` (written by `run_all`) belongs to it.
+    output::write_run(&dir, &model, &p.doc, &p.dec, &snapshots, &set_options())?;
     p.stages.push(("write outputs".into(), t1.elapsed().as_secs_f64()));
     let mut ev = eval::evaluate(def, &model, truth.as_ref(), &mut p, t0);
     ev.snapshots = snapshots.into_iter().map(|(s, _)| s).collect();
@@ -204,24 +203,19 @@ fn earlier_portals(out: &Path, c: &CompareTo) -> Result<(Vec<eval::PortalSummary
     }
 }
 
-/// Removes what an experiment writes from its results directory `dir` (and `dir` itself
-/// if that leaves it empty), so that a failed experiment leaves neither a partial set nor
-/// an earlier run's files that look current. Returns how many files were removed.
-fn clear_results(dir: &Path) -> usize {
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return 0;
-    };
-    let exporters = output::exporters();
-    let mut removed = 0;
-    for e in entries.flatten() {
-        let name = e.file_name().to_string_lossy().into_owned();
-        let ours = exporters.iter().any(|x| x.owns(&name)) || name == EVALUATION_FILE;
-        if ours && std::fs::remove_file(e.path()).is_ok() {
-            removed += 1;
-        }
+/// The experiment's output set: the run's files plus `evaluation.json`, written later.
+fn set_options() -> output::SetOptions<'static> {
+    output::SetOptions {
+        later: &[EVALUATION_FILE],
     }
-    let _ = std::fs::remove_dir(dir);
-    removed
+}
+
+/// Removes the earlier run's set from an experiment's results directory `dir` (named by its
+/// manifest; `dir` itself too if that leaves it empty), so that a failed experiment leaves
+/// neither a partial set nor an earlier run's files that look current; other files stay.
+/// Returns how many files were removed.
+fn clear_results(dir: &Path) -> usize {
+    output::remove_run(dir, &set_options()).map_or(0, |v| v.len())
 }
 
 /// Runs the definitions in order, then the rotation checks, then writes every

@@ -97,6 +97,73 @@ pub enum OutputError {
         /// Its version.
         version: u32,
     },
+    /// A `manifest.json` of another schema or version.
+    #[error("{} has schema {schema} v{version}, expected {} v{}", path.display(), super::MANIFEST_SCHEMA, super::MANIFEST_VERSION)]
+    ManifestSchema {
+        /// The file.
+        path: PathBuf,
+        /// Its schema name.
+        schema: String,
+        /// Its version.
+        version: u32,
+    },
+    /// The output path exists and is not a directory.
+    #[error("{} is not a directory", path.display())]
+    NotADirectory {
+        /// The path.
+        path: PathBuf,
+    },
+    /// The output directory holds files named like outputs that no run of ours wrote.
+    #[error(
+        "{} already holds {}, which no portalfind run wrote (no manifest.json of ours lists {}); \
+         nothing was written: move {} away or choose another output directory",
+        dir.display(), files.join(", "), if files.len() == 1 { "it" } else { "them" },
+        if files.len() == 1 { "it" } else { "them" }
+    )]
+    Foreign {
+        /// The directory.
+        dir: PathBuf,
+        /// The files' names.
+        files: Vec<String>,
+    },
+    /// Writing was interrupted (Ctrl-C); what this run had staged was removed.
+    #[error("interrupted: the outputs of this run were not written")]
+    Interrupted,
+    /// The directory holds a run that was stopped while its files were swapped in.
+    #[error(
+        "{} holds an incomplete run (its manifest.json says so: the run was stopped while \
+         writing); run again to replace it",
+        dir.display()
+    )]
+    IncompleteRun {
+        /// The directory.
+        dir: PathBuf,
+    },
+    /// A file that its directory's manifest does not list with this content.
+    #[error(
+        "{} does not match its directory's manifest.json (changed after the run wrote it, \
+         or from another run); run again to replace the set",
+        path.display()
+    )]
+    NotInManifest {
+        /// The file.
+        path: PathBuf,
+    },
+    /// A directory without a manifest where one is required.
+    #[error("{} has no manifest.json (not written by a portalfind run with manifests)", dir.display())]
+    NoManifest {
+        /// The directory.
+        dir: PathBuf,
+    },
+    /// A file of an earlier run cannot be removed.
+    #[error("cannot remove {}", path.display())]
+    Remove {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
     /// A bad row of a points file (`locate`).
     #[error("{}:{line}: {message}", path.display())]
     Points {

@@ -29,8 +29,9 @@ pub trait Exporter {
     /// The file names it writes for this run, in the order [`Exporter::write`] returns them.
     fn files(&self, ctx: &ExportContext<'_>) -> Vec<String>;
 
-    /// Whether `file_name` is a name this exporter writes for some run (so that a failed
-    /// experiment can clear an earlier run's files).
+    /// Whether `file_name` is a name this exporter writes for some run: such a file in an
+    /// output directory that no manifest lists makes a run refuse, and in output written
+    /// before manifests existed it is taken for the earlier run's.
     fn owns(&self, file_name: &str) -> bool;
 
     /// Runs after every other exporter (`result.json`, which `locate` reads, so that it

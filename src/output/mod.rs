@@ -3,22 +3,27 @@
 //! location in its cells.
 //!
 //! Every file is written by an [`Exporter`] (the list is [`exporters`]; a new format is
-//! one new file plus one line there) to a temporary name in the output directory and
-//! renamed into place, so an error never leaves a partial file under a final name;
-//! [`write_outputs`] writes `result.json` last and removes what it wrote if any exporter
-//! fails.
+//! one new file plus one line there). [`write_run`] writes a run's files as one set: staged
+//! in a hidden sibling directory, swapped in, `manifest.json` last (the module `set`
+//! explains each failure mode); an error leaves the output directory as it was, and only
+//! files of the previous run's set are ever replaced or removed.
 
 mod error;
 mod export;
 mod locate;
 mod plot;
 mod result_json;
+mod set;
 mod svg;
 mod weight_csv;
 
 pub use error::OutputError;
 pub use export::{ExportContext, Exporter, exporters, write_atomic};
 pub use locate::{Locator, read_points};
+pub use set::{
+    FileEntry, MANIFEST_FILE, MANIFEST_SCHEMA, MANIFEST_VERSION, Manifest, SetOptions, Written, check_output_dir,
+    check_run, interrupt, read_manifest, remove_run, verify_file, write_run, write_run_with,
+};
 pub use weight_csv::write_weight_csv;
 
 use crate::complex::{CellComplex, ComplexStats};
@@ -326,9 +331,9 @@ pub fn write_outputs(
 /// As [`write_outputs`], plus the top view `cells_<N>.svg` of each snapshot (from
 /// [`snapshot`]); returns the paths written, in the order of [`exporters`].
 ///
-/// Each file goes through a temporary name; the exporters that write what `locate` reads
-/// ([`Exporter::last`]: `result.json`) run last, and if any exporter fails, the files this
-/// call already wrote are removed, so a failed run never leaves a partial set behind.
+/// The files are one set ([`write_run`]): if any exporter fails, nothing in `dir` changes;
+/// the previous run's set is replaced as a whole; files named like outputs that no
+/// manifest lists make it refuse ([`OutputError::Foreign`]).
 pub fn write_outputs_with_snapshots(
     dir: &Path,
     model: &Model,
@@ -336,43 +341,22 @@ pub fn write_outputs_with_snapshots(
     dec: &Decimation,
     snapshots: &[(Snapshot, ResultDoc)],
 ) -> Result<Vec<PathBuf>, OutputError> {
-    std::fs::create_dir_all(dir).map_err(|source| OutputError::CreateDir {
-        dir: dir.to_path_buf(),
-        source,
-    })?;
-    let ctx = ExportContext {
-        dir,
-        model,
-        doc,
-        dec,
-        snapshots,
-    };
-    let list = exporters();
-    let mut written: Vec<Option<Vec<PathBuf>>> = vec![None; list.len()];
-    let order = (0..list.len())
-        .filter(|&i| !list[i].last())
-        .chain((0..list.len()).filter(|&i| list[i].last()));
-    for i in order {
-        match list[i].write(&ctx) {
-            Ok(paths) => written[i] = Some(paths),
-            Err(e) => {
-                for p in written.iter().flatten().flatten() {
-                    let _ = std::fs::remove_file(p);
-                }
-                return Err(e);
-            }
-        }
-    }
-    Ok(written.into_iter().flatten().flatten().collect())
+    Ok(write_run(dir, model, doc, dec, snapshots, &SetOptions::default())?.files)
 }
 
-/// Reads `DIR/result.json` and checks its schema name and version.
+/// Reads `DIR/result.json` and checks it against `DIR/manifest.json` (a directory without a
+/// manifest is output of an earlier version and read as is; an incomplete or disagreeing
+/// manifest is an error) and its schema name and version.
 pub fn read_result(dir: &Path) -> Result<ResultDoc, OutputError> {
+    if read_manifest(dir)?.is_some_and(|m| !m.complete) {
+        return Err(OutputError::IncompleteRun { dir: dir.to_path_buf() });
+    }
     let p = dir.join(RESULT_FILE);
     let text = std::fs::read_to_string(&p).map_err(|source| OutputError::Read {
         path: p.clone(),
         source,
     })?;
+    verify_file(dir, RESULT_FILE, text.as_bytes())?;
     let doc: ResultDoc = serde_json::from_str(&text).map_err(|source| OutputError::Parse {
         path: p.clone(),
         source,
