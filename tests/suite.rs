@@ -237,7 +237,7 @@ fn merging_two_rooms_scores_what_the_formulas_say() {
 
     // Splitting room A in two halves (x < 2, x >= 2, by cell centroid): A's recall is its
     // larger half's share.
-    let mut halves = vec![Vec::new(), Vec::new()];
+    let mut halves = [Vec::new(), Vec::new()];
     for &c in &g[0] {
         let x = cx.cells[c.idx()].poly.centroid()[0];
         halves[usize::from(x >= 2.0)].push(c);

@@ -23,7 +23,7 @@ fn bx(lo: P3, hi: P3) -> Aabb {
 
 /// Rotated and multi-storey buildings: the fine-grid variant for `seed / 2` even, else greedy.
 pub(crate) fn fine_variant(seed: u64) -> bool {
-    (seed / 2) % 2 == 0
+    (seed / 2).is_multiple_of(2)
 }
 
 /// How the boundary is cut into faces.

@@ -143,7 +143,11 @@ pub enum Half {
 impl Half {
     /// Even seeds tune, odd seeds report.
     pub fn of_seed(seed: u64) -> Half {
-        if seed % 2 == 0 { Half::Tune } else { Half::Report }
+        if seed.is_multiple_of(2) {
+            Half::Tune
+        } else {
+            Half::Report
+        }
     }
     /// `tune` or `report`.
     pub fn name(self) -> &'static str {
