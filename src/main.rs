@@ -106,6 +106,12 @@ enum Cmd {
         /// and where the stop rule ended the run.
         #[arg(long, value_delimiter = ',')]
         snapshots: Vec<usize>,
+        /// Also export (comma-separated): prt (Quake PRT1 portal file, cells.prt), obj
+        /// (cells.obj + cells.mtl, one object per cell and portal, for Blender), gltf
+        /// (cells.glb, named for Godot 3.5's rooms and portals), dot (portals.dot, Graphviz).
+        /// Default: none. See the README's "Exports".
+        #[arg(long, value_delimiter = ',', value_parser = export_format)]
+        export: Vec<String>,
     },
     /// Run experiment definitions (the thesis reproduction): every `*.json` of a directory,
     /// or one file. Each experiment writes OUT/NAME/ (result.json, evaluation.json, weight
@@ -277,6 +283,7 @@ fn run(cli: Cli) -> Result<()> {
             subdivision,
             bsp_candidates,
             snapshots,
+            export,
         } => with_output_dir(&out, || {
             run_decimation(
                 &model,
@@ -286,10 +293,21 @@ fn run(cli: Cli) -> Result<()> {
                 &out,
                 cell_settings(subdivision, bsp_candidates),
                 &snapshots,
+                &export,
             )
         }),
         Cmd::Locate { dir, points } => locate(&dir, &points),
         Cmd::Experiment { path, out, only } => experiment(&path, out, &only),
+    }
+}
+
+/// `run --export`'s values: the opt-in formats of the exporter registry.
+fn export_format(s: &str) -> Result<String, String> {
+    let known = portalfind::output::opt_in_formats();
+    if known.contains(&s) {
+        Ok(s.to_string())
+    } else {
+        Err(format!("unknown export format {s:?}; use {}", known.join(", ")))
     }
 }
 
@@ -662,6 +680,8 @@ fn with_output_dir(out: &std::path::Path, f: impl FnOnce() -> Result<()>) -> Res
     r
 }
 
+// One parameter per `run` option; a struct would only repeat the clap fields.
+#[allow(clippy::too_many_arguments)]
 fn run_decimation(
     path: &std::path::Path,
     heuristic: portalfind::decimate::HeuristicKind,
@@ -670,6 +690,7 @@ fn run_decimation(
     out: &std::path::Path,
     how: CellSettings,
     snapshot_counts: &[usize],
+    export: &[String],
 ) -> Result<()> {
     use portalfind::decimate::{QueueMode, Settings};
     let t0 = Instant::now();
@@ -734,7 +755,7 @@ fn run_decimation(
         .iter()
         .map(|&n| portalfind::output::snapshot(&m, path, &cx, &dec, n))
         .collect::<Result<Vec<_>, _>>()?;
-    let files = portalfind::output::write_outputs_with_snapshots(out, &m, &doc, &dec, &snapshots)?;
+    let files = portalfind::output::write_outputs_exporting(out, &m, &doc, &dec, &snapshots, Some(&cx), export)?;
     stages.push(("write outputs".into(), t3.elapsed().as_secs_f64()));
     println!("{:<44}{:>10}", "stage", "seconds");
     for (name, secs) in &stages {

@@ -8,17 +8,22 @@
 //! [`write_outputs`] writes `result.json` last and removes what it wrote if any exporter
 //! fails.
 
+mod cells_obj;
+mod dot;
 mod error;
 mod export;
+mod gltf;
 mod locate;
 mod plot;
+mod prt;
 mod result_json;
 mod svg;
 mod weight_csv;
 
 pub use error::OutputError;
-pub use export::{ExportContext, Exporter, exporters, write_atomic};
+pub use export::{ExportContext, Exporter, exporters, opt_in_formats, write_atomic};
 pub use locate::{Locator, read_points};
+pub use prt::{PrtFile, PrtPortal, parse_prt};
 pub use weight_csv::write_weight_csv;
 
 use crate::complex::{CellComplex, ComplexStats};
@@ -336,6 +341,28 @@ pub fn write_outputs_with_snapshots(
     dec: &Decimation,
     snapshots: &[(Snapshot, ResultDoc)],
 ) -> Result<Vec<PathBuf>, OutputError> {
+    write_outputs_exporting(dir, model, doc, dec, snapshots, None, &[])
+}
+
+/// As [`write_outputs_with_snapshots`], plus the opt-in formats named in `export` (see
+/// [`opt_in_formats`]: `prt`, `obj`, `gltf`, `dot`), which read the cell complex `cx`. An
+/// unknown name is an error before anything is written.
+pub fn write_outputs_exporting(
+    dir: &Path,
+    model: &Model,
+    doc: &ResultDoc,
+    dec: &Decimation,
+    snapshots: &[(Snapshot, ResultDoc)],
+    cx: Option<&CellComplex>,
+    export: &[String],
+) -> Result<Vec<PathBuf>, OutputError> {
+    let known = opt_in_formats();
+    if let Some(bad) = export.iter().find(|e| !known.contains(&e.as_str())) {
+        return Err(OutputError::Write {
+            file: format!("--export {bad}"),
+            source: format!("unknown export format; use one of {}", known.join(", ")).into(),
+        });
+    }
     std::fs::create_dir_all(dir).map_err(|source| OutputError::CreateDir {
         dir: dir.to_path_buf(),
         source,
@@ -346,8 +373,13 @@ pub fn write_outputs_with_snapshots(
         doc,
         dec,
         snapshots,
+        cx,
+        export,
     };
-    let list = exporters();
+    let list: Vec<Box<dyn Exporter>> = exporters()
+        .into_iter()
+        .filter(|x| x.opt_in().is_none_or(|k| export.iter().any(|e| e == k)))
+        .collect();
     let mut written: Vec<Option<Vec<PathBuf>>> = vec![None; list.len()];
     let order = (0..list.len())
         .filter(|&i| !list[i].last())
