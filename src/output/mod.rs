@@ -23,7 +23,7 @@ mod weight_csv;
 pub use error::OutputError;
 pub use export::{ExportContext, Exporter, exporters, opt_in_formats, write_atomic};
 pub use locate::{Locator, read_points};
-pub use prt::{PrtFile, PrtPortal, parse_prt};
+pub use prt::{MAX_POINTS_ON_WINDING, MAX_PORTALS_ON_LEAF, PrtFile, PrtLimits, PrtPortal, parse_prt, prt_file};
 pub use weight_csv::write_weight_csv;
 
 use crate::complex::{CellComplex, ComplexStats};

@@ -52,6 +52,23 @@ pub const MAX_PORTALS_ON_LEAF: usize = 128;
 
 const FILE: &str = "cells.prt";
 
+/// The limits a file is written within.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PrtLimits {
+    /// Points per winding (at least 3).
+    pub points: usize,
+    /// Portal lines per leaf.
+    pub portals_per_leaf: usize,
+}
+
+impl PrtLimits {
+    /// vis's: [`MAX_POINTS_ON_WINDING`], [`MAX_PORTALS_ON_LEAF`].
+    pub const VIS: PrtLimits = PrtLimits {
+        points: MAX_POINTS_ON_WINDING,
+        portals_per_leaf: MAX_PORTALS_ON_LEAF,
+    };
+}
+
 /// A PRT1 file: the leaf count and the portal lines.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PrtFile {
@@ -176,16 +193,17 @@ pub fn parse_prt(name: &str, text: &str) -> Result<PrtFile, String> {
     })
 }
 
-/// Splits a convex winding into pieces of at most [`MAX_POINTS_ON_WINDING`] points: a fan
-/// around its first point, consecutive pieces sharing an edge.
-fn split_winding(v: &[P3]) -> Vec<Vec<P3>> {
-    if v.len() <= MAX_POINTS_ON_WINDING {
+/// Splits a convex winding into pieces of at most `max` points (at least 3): a fan around
+/// its first point, consecutive pieces sharing an edge.
+fn split_winding(v: &[P3], max: usize) -> Vec<Vec<P3>> {
+    let max = max.max(3);
+    if v.len() <= max {
         return vec![v.to_vec()];
     }
     let mut out = Vec::new();
     let mut s = 1;
     while s + 1 < v.len() {
-        let e = (s + MAX_POINTS_ON_WINDING - 2).min(v.len() - 1);
+        let e = (s + max - 2).min(v.len() - 1);
         let mut w = vec![v[0]];
         w.extend_from_slice(&v[s..=e]);
         out.push(w);
@@ -194,8 +212,9 @@ fn split_winding(v: &[P3]) -> Vec<Vec<P3>> {
     out
 }
 
-/// The PRT1 file of a partition of `cx`'s cells (see the module docs for the conventions).
-pub fn prt_file(cx: &CellComplex, partition: &Partition) -> Result<PrtFile, String> {
+/// The PRT1 file of a partition of `cx`'s cells within `limits` (see the module docs for
+/// the conventions; `run --export prt` uses [`PrtLimits::VIS`]).
+pub fn prt_file(cx: &CellComplex, partition: &Partition, limits: PrtLimits) -> Result<PrtFile, String> {
     let mut leaf_of = vec![usize::MAX; cx.cells.len()];
     let mut leaf_cells: Vec<u32> = partition.cells.iter().map(|c| c.id.0).collect();
     for (i, c) in partition.cells.iter().enumerate() {
@@ -217,7 +236,7 @@ pub fn prt_file(cx: &CellComplex, partition: &Partition) -> Result<PrtFile, Stri
                 } else {
                     ([b, a], q.verts.iter().rev().copied().collect())
                 };
-                for w in split_winding(&verts) {
+                for w in split_winding(&verts, limits.points) {
                     out.push(PrtPortal { leaves, winding: w });
                 }
             }
@@ -234,7 +253,7 @@ pub fn prt_file(cx: &CellComplex, partition: &Partition) -> Result<PrtFile, Stri
         .portals_per_leaf()
         .iter()
         .enumerate()
-        .filter(|&(_, &n)| n > MAX_PORTALS_ON_LEAF)
+        .filter(|&(_, &n)| n > limits.portals_per_leaf)
         .map(|(i, _)| i)
         .collect();
     if !over.is_empty() {
@@ -251,12 +270,12 @@ pub fn prt_file(cx: &CellComplex, partition: &Partition) -> Result<PrtFile, Stri
             .portals_per_leaf()
             .into_iter()
             .enumerate()
-            .find(|&(_, n)| n > MAX_PORTALS_ON_LEAF)
+            .find(|&(_, n)| n > limits.portals_per_leaf)
         {
             return Err(format!(
-                "leaf {l} (a convex piece of cell {}) has {n} portal lines, more than vis's \
-                 {MAX_PORTALS_ON_LEAF}",
-                leaf_cells[l]
+                "leaf {l} (a convex piece of cell {}) has {n} portal lines, more than the \
+                 limit of {} (vis's MAX_PORTALS_ON_LEAF is {MAX_PORTALS_ON_LEAF})",
+                leaf_cells[l], limits.portals_per_leaf
             ));
         }
     }
@@ -286,7 +305,7 @@ impl Exporter for Prt {
 
     fn write(&self, ctx: &ExportContext<'_>) -> Result<Vec<PathBuf>, OutputError> {
         let cx = ctx.complex(FILE)?;
-        let prt = prt_file(cx, &ctx.dec.partition).map_err(|e| OutputError::Write {
+        let prt = prt_file(cx, &ctx.dec.partition, PrtLimits::VIS).map_err(|e| OutputError::Write {
             file: FILE.into(),
             source: e.into(),
         })?;
@@ -309,13 +328,14 @@ mod tests {
                 [t.cos(), t.sin(), 0.0]
             })
             .collect();
-        let parts = split_winding(&v);
+        let parts = split_winding(&v, MAX_POINTS_ON_WINDING);
         assert!(parts.iter().all(|w| w.len() <= MAX_POINTS_ON_WINDING && w.len() >= 3));
         // Every fan triangle (v0, vi, vi+1) is in exactly one part.
         let tris: usize = parts.iter().map(|w| w.len() - 2).sum();
         assert_eq!(tris, n - 2);
         assert_eq!(parts.len(), 3);
-        assert_eq!(split_winding(&v[..64]).len(), 1);
+        assert_eq!(split_winding(&v[..64], MAX_POINTS_ON_WINDING).len(), 1);
+        assert!(split_winding(&v[..10], 4).iter().all(|w| w.len() <= 4));
     }
 
     #[test]
