@@ -53,8 +53,8 @@ const file = process.argv[2];
 validator.validateBytes(new Uint8Array(fs.readFileSync(file)), { maxIssues: 100 }).then((r) => {
   const i = r.issues;
   console.log(`${r.validatorVersion}: ${file}: ${i.numErrors} errors, ${i.numWarnings} warnings, ` +
-    `${i.numInfos} infos, ${i.numHints} hints; ${r.info.nodeCount ?? '?'} nodes, ` +
-    `${r.info.meshCount ?? '?'} meshes, ${r.info.materialCount ?? '?'} materials, ` +
+    `${i.numInfos} infos, ${i.numHints} hints; ` +
+    `${r.info.materialCount ?? '?'} materials, ` +
     `${r.info.totalVertexCount ?? '?'} vertices, ${r.info.totalTriangleCount ?? '?'} triangles`);
   for (const m of i.messages) console.log(`  ${['error', 'warning', 'info', 'hint'][m.severity]} ${m.code} ${m.pointer ?? ''}: ${m.message}`);
   process.exit(i.numErrors > 0 ? 1 : 0);
@@ -135,8 +135,8 @@ import bpy
 bpy.ops.wm.read_factory_settings(use_empty=True)
 $imp
 names = [o.name for o in bpy.data.objects]
-print('BLENDER', len([n for n in names if n.startswith(('Cell_', 'Room_')) and not n.endswith('-portal')]),
-      len([n for n in names if 'Portal_' in n]))
+print('BLENDER', sum(n.startswith('Cell_') for n in names), 'Cell_,', sum(n.endswith('-room') for n in names),
+      '-room,', sum('Portal_' in n for n in names), 'Portal_ objects')
 " >"$work/blender-$f.txt" 2>&1 || true
     pass "blender $f: $(grep '^BLENDER' "$work/blender-$f.txt" || echo 'no result; see '"$work/blender-$f.txt")"
   done

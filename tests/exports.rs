@@ -249,6 +249,11 @@ fn prt_splits_leaves_and_windings_over_the_limits() {
     )
     .unwrap_err();
     assert!(e.contains("more than the limit of 1"), "{e}");
+    // There every leaf is convex, as qbsp's are: our windings follow e1m1.prt's convention.
+    let f = prt_file(&r.cx, &part, PrtLimits::VIS).unwrap();
+    assert!(f.portals.len() > 50);
+    let (bad, total) = orientation_violations(&f, 1e-9 * r.cx.tol.scale);
+    assert_eq!(bad, 0, "of {total}");
     let vis = prt_file(&r.cx, &r.dec.partition, PrtLimits::VIS).unwrap();
     // Points alone: the fans keep every portal's area.
     let fans = prt_file(
