@@ -117,6 +117,12 @@ enum Cmd {
         /// and where the stop rule ended the run.
         #[arg(long, value_delimiter = ',')]
         snapshots: Vec<usize>,
+        /// Also export (comma-separated): prt (Quake PRT1 portal file, cells.prt), obj
+        /// (cells.obj + cells.mtl, one object per cell and portal, for Blender), gltf
+        /// (cells.glb, named for Godot 3.5's rooms and portals), dot (portals.dot, Graphviz).
+        /// Default: none. See the README's "Exports".
+        #[arg(long, value_delimiter = ',', value_parser = export_format)]
+        export: Vec<String>,
     },
     /// Run experiment definitions (the thesis reproduction): every `*.json` of a directory,
     /// or one file. Each experiment writes OUT/NAME/ (result.json, evaluation.json, weight
@@ -387,6 +393,7 @@ fn run(cli: Cli) -> Result<()> {
             subdivision,
             bsp_candidates,
             snapshots,
+            export,
         } => with_output_dir(&out, || {
             run_decimation(
                 &model,
@@ -396,10 +403,21 @@ fn run(cli: Cli) -> Result<()> {
                 &out,
                 cell_settings(subdivision, bsp_candidates),
                 &snapshots,
+                &export,
             )
         }),
         Cmd::Locate { dir, points } => locate(&dir, &points),
         Cmd::Experiment { path, out, only } => experiment(&path, out, &only),
+    }
+}
+
+/// `run --export`'s values: the opt-in formats of the exporter registry.
+fn export_format(s: &str) -> Result<String, String> {
+    let known = portalfind::output::opt_in_formats();
+    if known.contains(&s) {
+        Ok(s.to_string())
+    } else {
+        Err(format!("unknown export format {s:?}; use {}", known.join(", ")))
     }
 }
 
@@ -806,6 +824,8 @@ fn write_or_clear_pointfile(pf: &std::path::Path, points: Option<Vec<[f64; 3]>>)
     Ok(())
 }
 
+// One parameter per `run` option; a struct would only repeat the clap fields.
+#[allow(clippy::too_many_arguments)]
 fn run_decimation(
     path: &std::path::Path,
     heuristic: portalfind::decimate::HeuristicKind,
@@ -814,6 +834,7 @@ fn run_decimation(
     out: &std::path::Path,
     how: CellSettings,
     snapshot_counts: &[usize],
+    export: &[String],
 ) -> Result<()> {
     use portalfind::decimate::{QueueMode, Settings};
     let t0 = Instant::now();
@@ -884,7 +905,11 @@ fn run_decimation(
         &doc,
         &dec,
         &snapshots,
-        &portalfind::output::SetOptions::default(),
+        &portalfind::output::SetOptions {
+            cx: Some(&cx),
+            export,
+            ..Default::default()
+        },
     )?;
     let files = &written.files;
     stages.push(("write outputs".into(), t3.elapsed().as_secs_f64()));

@@ -207,6 +207,7 @@ fn earlier_portals(out: &Path, c: &CompareTo) -> Result<(Vec<eval::PortalSummary
 fn set_options() -> output::SetOptions<'static> {
     output::SetOptions {
         later: &[EVALUATION_FILE],
+        ..Default::default()
     }
 }
 

@@ -3,6 +3,7 @@
 //! type implementing [`Exporter`] and add one line to [`exporters`].
 
 use super::{OutputError, ResultDoc, Snapshot};
+use crate::complex::CellComplex;
 use crate::decimate::Decimation;
 use crate::model::Model;
 use std::path::{Path, PathBuf};
@@ -19,6 +20,21 @@ pub struct ExportContext<'a> {
     pub dec: &'a Decimation,
     /// Intermediate states to draw (from [`super::snapshot`]).
     pub snapshots: &'a [(Snapshot, ResultDoc)],
+    /// The cell complex (the convex pieces' polyhedra, patches, portals), when the caller
+    /// passed it ([`super::write_outputs_exporting`]); the opt-in exporters need it.
+    pub cx: Option<&'a CellComplex>,
+    /// The opt-in formats requested ([`Exporter::opt_in`] names, e.g. `run --export prt,obj`).
+    pub export: &'a [String],
+}
+
+impl ExportContext<'_> {
+    /// The cell complex, or an error naming `file` when the caller did not pass it.
+    pub fn complex(&self, file: &str) -> Result<&CellComplex, OutputError> {
+        self.cx.ok_or_else(|| OutputError::Write {
+            file: file.to_string(),
+            source: "this export needs the cell complex (write_outputs_exporting)".into(),
+        })
+    }
 }
 
 /// One output format.
@@ -40,6 +56,13 @@ pub trait Exporter {
         false
     }
 
+    /// `Some(name)`: an opt-in format, written only when `name` is among
+    /// [`ExportContext::export`] (`run --export name`); `None` (the default): written on
+    /// every run.
+    fn opt_in(&self) -> Option<&'static str> {
+        None
+    }
+
     /// Writes its files into `ctx.dir`, each through [`write_atomic`]; returns their paths.
     /// On an error it leaves none of its files behind.
     fn write(&self, ctx: &ExportContext<'_>) -> Result<Vec<PathBuf>, OutputError>;
@@ -53,7 +76,16 @@ pub fn exporters() -> Vec<Box<dyn Exporter>> {
         Box::new(super::plot::WeightPng),
         Box::new(super::svg::CellsSvg),
         Box::new(super::svg::Snapshots),
+        Box::new(super::prt::Prt),
+        Box::new(super::cells_obj::CellsObj),
+        Box::new(super::gltf::Glb),
+        Box::new(super::dot::Dot),
     ]
+}
+
+/// The names of the opt-in formats ([`Exporter::opt_in`]), in registry order.
+pub fn opt_in_formats() -> Vec<&'static str> {
+    exporters().iter().filter_map(|x| x.opt_in()).collect()
 }
 
 /// Writes `path`'s content through a temporary file in the same directory (named with the

@@ -8,18 +8,23 @@
 //! explains each failure mode); an error leaves the output directory as it was, and only
 //! files of the previous run's set are ever replaced or removed.
 
+mod cells_obj;
+mod dot;
 mod error;
 mod export;
+mod gltf;
 mod locate;
 mod plot;
+mod prt;
 mod result_json;
 mod set;
 mod svg;
 mod weight_csv;
 
 pub use error::OutputError;
-pub use export::{ExportContext, Exporter, exporters, write_atomic};
+pub use export::{ExportContext, Exporter, exporters, opt_in_formats, write_atomic};
 pub use locate::{Locator, read_points};
+pub use prt::{MAX_POINTS_ON_WINDING, MAX_PORTALS_ON_LEAF, PrtFile, PrtLimits, PrtPortal, parse_prt, prt_file};
 pub use set::{
     FileEntry, MANIFEST_FILE, MANIFEST_SCHEMA, MANIFEST_VERSION, Manifest, SetOptions, Written, check_output_dir,
     check_run, interrupt, read_manifest, remove_run, verify_file, write_run, write_run_with,
@@ -342,6 +347,26 @@ pub fn write_outputs_with_snapshots(
     snapshots: &[(Snapshot, ResultDoc)],
 ) -> Result<Vec<PathBuf>, OutputError> {
     Ok(write_run(dir, model, doc, dec, snapshots, &SetOptions::default())?.files)
+}
+
+/// As [`write_outputs_with_snapshots`], plus the opt-in formats named in `export` (see
+/// [`opt_in_formats`]: `prt`, `obj`, `gltf`, `dot`), which read the cell complex `cx`. An
+/// unknown name is an error before anything is written.
+pub fn write_outputs_exporting(
+    dir: &Path,
+    model: &Model,
+    doc: &ResultDoc,
+    dec: &Decimation,
+    snapshots: &[(Snapshot, ResultDoc)],
+    cx: Option<&CellComplex>,
+    export: &[String],
+) -> Result<Vec<PathBuf>, OutputError> {
+    let opts = SetOptions {
+        cx,
+        export,
+        ..Default::default()
+    };
+    Ok(write_run(dir, model, doc, dec, snapshots, &opts)?.files)
 }
 
 /// Reads `DIR/result.json` and checks it against `DIR/manifest.json` (a directory without a

@@ -73,6 +73,11 @@ pub struct SetOptions<'a> {
     /// File names the caller writes into the directory after the set; they belong to the
     /// run (replaced with it, never taken for foreign files).
     pub later: &'a [&'a str],
+    /// The cell complex, for the opt-in formats that read cell geometry.
+    pub cx: Option<&'a crate::complex::CellComplex>,
+    /// Opt-in formats to write as well (`prt`, `obj`, `gltf`, `dot`; see
+    /// [`super::opt_in_formats`]); an unknown name is an error before anything is written.
+    pub export: &'a [String],
 }
 
 /// What [`write_run`] did.
@@ -458,14 +463,27 @@ pub fn write_run_with(
         std::process::id(),
         STAGING_SEQ.fetch_add(1, Ordering::SeqCst)
     ));
+    let known = super::opt_in_formats();
+    if let Some(bad) = opts.export.iter().find(|e| !known.contains(&e.as_str())) {
+        return Err(OutputError::Write {
+            file: format!("--export {bad}"),
+            source: format!("unknown export format; use one of {}", known.join(", ")).into(),
+        });
+    }
     let ctx = ExportContext {
         dir: &staging,
         model,
         doc,
         dec,
         snapshots,
+        cx: opts.cx,
+        export: opts.export,
     };
-    let names: Vec<String> = list.iter().flat_map(|x| x.files(&ctx)).collect();
+    let names: Vec<String> = list
+        .iter()
+        .filter(|x| chosen(x.as_ref(), opts.export))
+        .flat_map(|x| x.files(&ctx))
+        .collect();
     let previous = if exists {
         previous_set(dir, list, opts.later)?
     } else {
@@ -551,12 +569,19 @@ struct Staged {
 }
 
 /// Runs the exporters into the staging directory `ctx.dir` (`result.json` last).
+/// Whether an exporter runs: always, or when its opt-in format is named in `export`.
+fn chosen(x: &dyn Exporter, export: &[String]) -> bool {
+    x.opt_in().is_none_or(|k| export.iter().any(|e| e == k))
+}
+
 fn stage(list: &[Box<dyn Exporter>], ctx: &ExportContext<'_>, opts: &SetOptions<'_>) -> Result<Staged, OutputError> {
     let mut written: Vec<Option<Vec<PathBuf>>> = vec![None; list.len()];
     let mut order = Vec::new();
+    let on = |i: &usize| chosen(list[*i].as_ref(), opts.export);
     let sequence = (0..list.len())
         .filter(|&i| !list[i].last())
-        .chain((0..list.len()).filter(|&i| list[i].last()));
+        .chain((0..list.len()).filter(|&i| list[i].last()))
+        .filter(on);
     for i in sequence {
         interrupted()?;
         let paths = list[i].write(ctx)?;
