@@ -145,7 +145,8 @@ fn default_run_writes_none_of_the_exports_and_unknown_names_fail() {
     // An export that needs the complex, asked for without it, fails and leaves nothing.
     let out2 = dir.join("out2");
     assert!(output::write_outputs_exporting(&out2, &m, &r.doc, &r.dec, &[], None, &["obj".to_string()]).is_err());
-    assert_eq!(std::fs::read_dir(&out2).unwrap().count(), 0);
+    // (The output set is staged beside `out2`, so the directory is not even created.)
+    assert!(!out2.exists() || std::fs::read_dir(&out2).unwrap().count() == 0);
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
