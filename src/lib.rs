@@ -24,6 +24,7 @@ pub mod output;
 pub mod predicates;
 pub mod rooms;
 pub mod tolerances;
+pub mod visibility;
 
 // compat re-export, removed after merge
 #[doc(hidden)]
