@@ -177,8 +177,8 @@ fn pvs_is_conservative_by_sampling() {
         let (rep, costs) = cost::evaluate(&pv, &polys, &vols);
         let (srep, _) = sample::check(&m, &cx, &sample::pieces_of_complex(&cx), &pv, &polys, &costs, &ss);
         eprintln!(
-            "{name} (complex): {} cells, PVS mean {:.1}, E_T {:.0} of {}, rays {}, false {}, back {}, escaped {}, over {:.2}",
-            rep.cells, rep.pvs_mean_cells, rep.expected_triangles, rep.total_triangles, srep.rays,
+            "{name} (complex): {} cells, PVS mean {:.1} ({:.3} s, {} sources truncated), E_T {:.0} of {}, rays {}, false {}, back {}, escaped {}, over {:.2}",
+            rep.cells, rep.pvs_mean_cells, rep.pvs_seconds, rep.pvs.sources_truncated, rep.expected_triangles, rep.total_triangles, srep.rays,
             srep.false_invisible, srep.back_hits, srep.escaped, srep.overestimation_median
         );
         assert_eq!(srep.false_invisible, 0, "{name}: {:?}", srep.false_invisible_examples);
@@ -254,9 +254,9 @@ fn e1m1_measurements() {
     let pv = pvs::compute(&g, &PvsSettings::default());
     let t = t0.elapsed().as_secs_f64();
     println!(
-        "e1m1.prt: {} leaves, {} portals; PVS mean {:.1} max {} leaves; {:.2} s (base {:.2} s, flow {:.2} s, {} chains, mean base vis {:.1})",
+        "e1m1.prt: {} leaves, {} portals; PVS mean {:.1} max {} leaves; {:.2} s (base {:.2} s, flow {:.2} s, {} chains, mean base vis {:.1}, {} sources truncated)",
         g.cells, g.portals.len(), pv.mean_size(), pv.max_size(), t, pv.stats.base_seconds, pv.stats.flow_seconds,
-        pv.stats.chains, pv.stats.mean_base_vis
+        pv.stats.chains, pv.stats.mean_base_vis, pv.stats.sources_truncated
     );
     let base = pvs::compute(&g, &PvsSettings { base_only: true, ..Default::default() });
     println!("e1m1.prt base visibility only: PVS mean {:.1}", base.mean_size());
@@ -273,10 +273,10 @@ fn e1m1_measurements() {
         let r = &v.report;
         println!(
             "cells:{cells}: decimation {td:.1} s; {} cells, {} portals ({} pieces); PVS mean {:.1} max {} cells, \
-             volume-weighted {:.1}; PVS {:.2} s (base {:.2}, flow {:.2}, chains {}); triangles {} (in no cell {}); \
+             volume-weighted {:.1}; PVS {:.2} s (base {:.2}, flow {:.2}, chains {}, sources truncated {}); triangles {} (in no cell {}); \
              E_T {:.0}; area fraction {:.3}; culling ratio {:.3}; cost {:.3} s",
             r.cells, r.portals, r.portal_pieces, r.pvs_mean_cells, r.pvs_max_cells, r.expected_pvs_cells,
-            r.pvs_seconds, r.pvs.base_seconds, r.pvs.flow_seconds, r.pvs.chains, r.total_triangles,
+            r.pvs_seconds, r.pvs.base_seconds, r.pvs.flow_seconds, r.pvs.chains, r.pvs.sources_truncated, r.total_triangles,
             r.triangles_in_no_cell, r.expected_triangles, r.area_fraction, r.culling_ratio, r.cost_seconds
         );
         let ss = SampleSettings { seed: 1, points_per_cell: 64, rays_per_point: 64 };

@@ -52,6 +52,10 @@ pub struct PortalGraph {
     pub cells: usize,
     /// Portals.
     pub portals: Vec<GraphPortal>,
+    /// Every cell is convex (the complex's cells, PRT leaves): a line enters each cell at
+    /// most once, so the flow never re-enters a cell of the current chain. False for
+    /// merged cells.
+    pub convex_cells: bool,
 }
 
 impl PortalGraph {
@@ -67,7 +71,7 @@ impl PortalGraph {
                 Some(GraphPortal { cells: [a, b], pieces: mp.pieces.into_iter().map(|q| q.verts).collect() })
             })
             .collect();
-        PortalGraph { cells: partition.len(), portals }
+        PortalGraph { cells: partition.len(), portals, convex_cells: false }
     }
 
     /// The portal graph of the complex's active cells, numbered in the order of
@@ -91,7 +95,7 @@ impl PortalGraph {
                 })
             })
             .collect();
-        (PortalGraph { cells: n as usize, portals }, index)
+        (PortalGraph { cells: n as usize, portals, convex_cells: true }, index)
     }
 
     /// Number of convex portal pieces.

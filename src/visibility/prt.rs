@@ -88,6 +88,7 @@ impl PrtFile {
                 .iter()
                 .map(|p| GraphPortal { cells: p.leaves, pieces: vec![p.winding.clone()] })
                 .collect(),
+            convex_cells: true,
         }
     }
 }

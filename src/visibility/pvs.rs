@@ -40,11 +40,17 @@ pub struct PvsSettings {
     pub epsilon_rel: f64,
     /// Stop after the base visibility (the flood fill); the result is a coarser PVS.
     pub base_only: bool,
+    /// Work bound per source portal, in flow steps. Once a source's flow has taken this
+    /// many steps, each further branch that passes the clipping is not followed: every cell
+    /// it could still see (the intersection of the bounds along its chain) is marked
+    /// visible instead. Conservative, and it bounds the cost of dense graphs (the complex's
+    /// own tetrahedral cells), where the number of portal sequences explodes.
+    pub max_steps_per_source: u64,
 }
 
 impl Default for PvsSettings {
     fn default() -> Self {
-        PvsSettings { epsilon_rel: 1e-6, base_only: false }
+        PvsSettings { epsilon_rel: 1e-6, base_only: false, max_steps_per_source: 20_000 }
     }
 }
 
@@ -63,6 +69,10 @@ pub struct PvsStats {
     pub mean_base_vis: f64,
     /// Recursive flow steps (cells entered).
     pub chains: u64,
+    /// Source portals whose flow reached [`PvsSettings::max_steps_per_source`].
+    pub sources_truncated: usize,
+    /// Branches not followed because of it (their bounds marked visible instead).
+    pub branches_truncated: u64,
     /// Seconds for the base visibility.
     pub base_seconds: f64,
     /// Seconds for the portal flow.
@@ -229,6 +239,11 @@ struct Flow<'a> {
     root_n: P3,
     root_d: f64,
     chains: u64,
+    budget: u64,
+    truncated: u64,
+    /// Cells are convex (a line enters each at most once).
+    convex: bool,
+    cell_on_stack: Vec<bool>,
 }
 
 impl Flow<'_> {
@@ -239,7 +254,9 @@ impl Flow<'_> {
         let mut might = vec![0u64; words];
         for &pi in &self.out[cell as usize] {
             let p = &self.dp[pi as usize];
-            if self.on_stack[p.piece as usize] || prev.might[p.to as usize / 64] & (1 << (p.to % 64)) == 0 {
+            if self.on_stack[p.piece as usize]
+                || (self.convex && self.cell_on_stack[p.to as usize])
+                || prev.might[p.to as usize / 64] & (1 << (p.to % 64)) == 0 {
                 continue;
             }
             let test = match &self.fin[pi as usize] {
@@ -275,10 +292,20 @@ impl Flow<'_> {
                     pass
                 }
             };
+            if self.chains >= self.budget {
+                // Out of budget: everything this branch could still see is visible.
+                self.truncated += 1;
+                for (v, m) in self.vis.words_mut().iter_mut().zip(&might) {
+                    *v |= m;
+                }
+                continue;
+            }
             let frame = Frame { source, pass: Some(pass), n: p.n, d: p.d, might: &might };
             let (to, piece) = (p.to, p.piece as usize);
             self.on_stack[piece] = true;
+            self.cell_on_stack[to as usize] = true;
             self.flow(to, &frame);
+            self.cell_on_stack[to as usize] = false;
             self.on_stack[piece] = false;
         }
     }
@@ -386,6 +413,7 @@ fn compute_inner(graph: &PortalGraph, settings: &PvsSettings) -> Pvs {
     order.sort_by_key(|&k| (base[k].count(), k));
     let mut fin: Vec<Option<BitSet>> = vec![None; dp.len()];
     let mut on_stack = vec![false; piece as usize];
+    let mut cell_on_stack = vec![false; n];
     for &k in &order {
         let s = &dp[k];
         let mut flow = Flow {
@@ -399,13 +427,24 @@ fn compute_inner(graph: &PortalGraph, settings: &PvsSettings) -> Pvs {
             root_n: s.n,
             root_d: s.d,
             chains: 0,
+            budget: settings.max_steps_per_source,
+            truncated: 0,
+            convex: graph.convex_cells,
+            cell_on_stack: std::mem::take(&mut cell_on_stack),
         };
         let root = Frame { source: s.poly.clone(), pass: None, n: s.n, d: s.d, might: base[k].words() };
         flow.on_stack[s.piece as usize] = true;
+        flow.cell_on_stack[from[k] as usize] = true;
+        flow.cell_on_stack[s.to as usize] = true;
         flow.flow(s.to, &root);
+        flow.cell_on_stack[s.to as usize] = false;
+        flow.cell_on_stack[from[k] as usize] = false;
         flow.on_stack[s.piece as usize] = false;
         stats.chains += flow.chains;
+        stats.sources_truncated += (flow.truncated > 0) as usize;
+        stats.branches_truncated += flow.truncated;
         on_stack = flow.on_stack;
+        cell_on_stack = flow.cell_on_stack;
         let vis = flow.vis;
         fin[k] = Some(vis);
     }
@@ -443,6 +482,7 @@ mod tests {
     fn row_of_portals() {
         let mk = |shift: f64| PortalGraph {
             cells: 4,
+            convex_cells: true,
             portals: vec![
                 GraphPortal { cells: [0, 1], pieces: vec![square(1.0, 0.0, 1.0, 0.0, 1.0)] },
                 GraphPortal { cells: [1, 2], pieces: vec![square(2.0, 0.0, 1.0, 0.0, 1.0)] },
