@@ -12,7 +12,10 @@ pub struct BitSet {
 impl BitSet {
     /// The empty set over `0..len`.
     pub fn new(len: usize) -> Self {
-        BitSet { words: vec![0; len.div_ceil(64)], len }
+        BitSet {
+            words: vec![0; len.div_ceil(64)],
+            len,
+        }
     }
     /// The universe `0..len`.
     pub fn full(len: usize) -> Self {

@@ -69,11 +69,20 @@ impl CellPolygons {
                 in_some_cell[p as usize] = true;
             }
         }
-        let triangles = model.polygons.iter().map(|p| p.verts.len().saturating_sub(2) as u32).collect();
+        let triangles = model
+            .polygons
+            .iter()
+            .map(|p| p.verts.len().saturating_sub(2) as u32)
+            .collect();
         let area = (0..model.polygons.len())
             .map(|i| 0.5 * crate::base::vec::norm(&model.polygon_normal(crate::PolygonId(i as u32))))
             .collect();
-        CellPolygons { polygons, triangles, area, in_some_cell }
+        CellPolygons {
+            polygons,
+            triangles,
+            area,
+            in_some_cell,
+        }
     }
 
     /// Triangles and area of the polygons facing any cell of `set` (each polygon once).
@@ -157,14 +166,23 @@ pub fn evaluate(pvs: &Pvs, polys: &CellPolygons, volumes: &[f64]) -> (Visibility
     let (mut vol, mut et, mut ea, mut ec) = (0.0, 0.0, 0.0, 0.0);
     for c in 0..n {
         let (t, a) = polys.cost_of(&pvs.sets[c], &mut stamp, c as u32);
-        let own = polys.polygons[c].iter().map(|&p| polys.triangles[p as usize] as u64).sum();
+        let own = polys.polygons[c]
+            .iter()
+            .map(|&p| polys.triangles[p as usize] as u64)
+            .sum();
         let v = volumes.get(c).copied().unwrap_or(0.0);
         let k = pvs.sets[c].count();
         vol += v;
         et += v * t as f64;
         ea += v * a;
         ec += v * k as f64;
-        cells.push(CellCost { volume: v, pvs_cells: k, own_triangles: own, pvs_triangles: t, pvs_area: a });
+        cells.push(CellCost {
+            volume: v,
+            pvs_cells: k,
+            own_triangles: own,
+            pvs_triangles: t,
+            pvs_area: a,
+        });
     }
     let total_triangles: u64 = polys.triangles.iter().map(|&t| t as u64).sum();
     let total_area: f64 = polys.area.iter().sum();
@@ -189,8 +207,16 @@ pub fn evaluate(pvs: &Pvs, polys: &CellPolygons, volumes: &[f64]) -> (Visibility
         triangles_in_no_cell,
         expected_triangles,
         expected_area,
-        area_fraction: if total_area > 0.0 { expected_area / total_area } else { 0.0 },
-        culling_ratio: if total_triangles > 0 { 1.0 - expected_triangles / total_triangles as f64 } else { 0.0 },
+        area_fraction: if total_area > 0.0 {
+            expected_area / total_area
+        } else {
+            0.0
+        },
+        culling_ratio: if total_triangles > 0 {
+            1.0 - expected_triangles / total_triangles as f64
+        } else {
+            0.0
+        },
         expected_pvs_cells: w(ec),
         pvs: pvs.stats.clone(),
         pvs_seconds: pvs.stats.base_seconds + pvs.stats.flow_seconds,
@@ -223,6 +249,12 @@ impl PartitionVisibility {
         let polygons = CellPolygons::from_partition(model, cx, partition);
         let volumes: Vec<f64> = partition.cells.iter().map(|c| c.volume).collect();
         let (report, cells) = evaluate(&pvs, &polygons, &volumes);
-        PartitionVisibility { graph, pvs, polygons, cells, report }
+        PartitionVisibility {
+            graph,
+            pvs,
+            polygons,
+            cells,
+            report,
+        }
     }
 }

@@ -68,10 +68,17 @@ impl PortalGraph {
             .filter_map(|mp| {
                 let a = partition.cell_of(mp.cells[0])? as u32;
                 let b = partition.cell_of(mp.cells[1])? as u32;
-                Some(GraphPortal { cells: [a, b], pieces: mp.pieces.into_iter().map(|q| q.verts).collect() })
+                Some(GraphPortal {
+                    cells: [a, b],
+                    pieces: mp.pieces.into_iter().map(|q| q.verts).collect(),
+                })
             })
             .collect();
-        PortalGraph { cells: partition.len(), portals, convex_cells: false }
+        PortalGraph {
+            cells: partition.len(),
+            portals,
+            convex_cells: false,
+        }
     }
 
     /// The portal graph of the complex's active cells, numbered in the order of
@@ -95,7 +102,14 @@ impl PortalGraph {
                 })
             })
             .collect();
-        (PortalGraph { cells: n as usize, portals, convex_cells: true }, index)
+        (
+            PortalGraph {
+                cells: n as usize,
+                portals,
+                convex_cells: true,
+            },
+            index,
+        )
     }
 
     /// Number of convex portal pieces.

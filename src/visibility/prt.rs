@@ -86,7 +86,10 @@ impl PrtFile {
             portals: self
                 .portals
                 .iter()
-                .map(|p| GraphPortal { cells: p.leaves, pieces: vec![p.winding.clone()] })
+                .map(|p| GraphPortal {
+                    cells: p.leaves,
+                    pieces: vec![p.winding.clone()],
+                })
                 .collect(),
             convex_cells: true,
         }
@@ -95,22 +98,33 @@ impl PrtFile {
 
 /// Reads a PRT1 file.
 pub fn read(path: &Path) -> Result<PrtFile, PrtError> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|source| PrtError::Io { path: path.display().to_string(), source })?;
+    let text = std::fs::read_to_string(path).map_err(|source| PrtError::Io {
+        path: path.display().to_string(),
+        source,
+    })?;
     parse(&text)
 }
 
 /// Parses the text of a PRT1 file.
 pub fn parse(text: &str) -> Result<PrtFile, PrtError> {
-    let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l.trim())).filter(|(_, l)| !l.is_empty());
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.trim()))
+        .filter(|(_, l)| !l.is_empty());
     let syntax = |line: usize, message: String| PrtError::Syntax { line, message };
     let (l1, head) = lines.next().ok_or_else(|| syntax(1, "empty file".into()))?;
     if head != "PRT1" {
-        return Err(PrtError::Unsupported { line: l1, found: head.to_string() });
+        return Err(PrtError::Unsupported {
+            line: l1,
+            found: head.to_string(),
+        });
     }
     let mut count = |what: &str| -> Result<(usize, usize), PrtError> {
         let (l, s) = lines.next().ok_or_else(|| syntax(l1 + 1, format!("missing {what}")))?;
-        let n = s.parse::<usize>().map_err(|_| syntax(l, format!("{what}: expected a count, found {s:?}")))?;
+        let n = s
+            .parse::<usize>()
+            .map_err(|_| syntax(l, format!("{what}: expected a count, found {s:?}")))?;
         Ok((l, n))
     };
     let (_, leaves) = count("number of leaves")?;
@@ -121,13 +135,19 @@ pub fn parse(text: &str) -> Result<PrtFile, PrtError> {
         if portals.len() == portals_n {
             return Err(syntax(line, format!("more than the {portals_n} portals announced")));
         }
-        let head_end = s.find('(').ok_or_else(|| syntax(line, "no points (expected \"(x y z )\")".into()))?;
+        let head_end = s
+            .find('(')
+            .ok_or_else(|| syntax(line, "no points (expected \"(x y z )\")".into()))?;
         let ints: Vec<&str> = s[..head_end].split_whitespace().collect();
         if ints.len() < 3 {
-            return Err(syntax(line, format!("expected \"numpoints leaf0 leaf1\", found {:?}", &s[..head_end])));
+            return Err(syntax(
+                line,
+                format!("expected \"numpoints leaf0 leaf1\", found {:?}", &s[..head_end]),
+            ));
         }
         let int = |t: &str, what: &str| {
-            t.parse::<u32>().map_err(|_| syntax(line, format!("{what}: expected an integer, found {t:?}")))
+            t.parse::<u32>()
+                .map_err(|_| syntax(line, format!("{what}: expected an integer, found {t:?}")))
         };
         let n = int(ints[0], "number of points")? as usize;
         let l0 = int(ints[1], "leaf0")?;
@@ -143,24 +163,40 @@ pub fn parse(text: &str) -> Result<PrtFile, PrtError> {
             if g.is_empty() {
                 continue;
             }
-            let g = g.strip_prefix('(').ok_or_else(|| syntax(line, format!("expected \"(\", found {g:?}")))?;
+            let g = g
+                .strip_prefix('(')
+                .ok_or_else(|| syntax(line, format!("expected \"(\", found {g:?}")))?;
             let xyz: Vec<f64> = g
                 .split_whitespace()
                 .map(|t| t.parse::<f64>().ok().filter(|v| v.is_finite()))
                 .collect::<Option<_>>()
                 .ok_or_else(|| syntax(line, format!("point {}: not three numbers: {g:?}", winding.len() + 1)))?;
             if xyz.len() != 3 {
-                return Err(syntax(line, format!("point {}: {} coordinates, expected 3", winding.len() + 1, xyz.len())));
+                return Err(syntax(
+                    line,
+                    format!("point {}: {} coordinates, expected 3", winding.len() + 1, xyz.len()),
+                ));
             }
             winding.push([xyz[0], xyz[1], xyz[2]]);
         }
         if winding.len() != n || n < 3 {
-            return Err(syntax(line, format!("{} points, header says {n} (at least 3)", winding.len())));
+            return Err(syntax(
+                line,
+                format!("{} points, header says {n} (at least 3)", winding.len()),
+            ));
         }
-        portals.push(PrtPortal { leaves: [l0, l1], winding, line });
+        portals.push(PrtPortal {
+            leaves: [l0, l1],
+            winding,
+            line,
+        });
     }
     if portals.len() < portals_n {
-        return Err(PrtError::Truncated { line: last + 1, found: portals.len(), expected: portals_n });
+        return Err(PrtError::Truncated {
+            line: last + 1,
+            found: portals.len(),
+            expected: portals_n,
+        });
     }
     Ok(PrtFile { leaves, portals })
 }
@@ -181,7 +217,20 @@ mod tests {
         let e = parse("PRT1\n2\n1\n4 0 5 (0 0 0 ) (0 1 0 ) (0 1 1 ) (0 0 1 )\n").unwrap_err();
         assert!(e.to_string().starts_with("line 4: leaf1 5"), "{e}");
         let e = parse("PRT1\n2\n2\n3 0 1 (0 0 0 ) (0 1 0 ) (0 1 1 )\n").unwrap_err();
-        assert!(matches!(e, PrtError::Truncated { found: 1, expected: 2, .. }), "{e}");
-        assert!(matches!(parse("PRT2\n1\n1\n1\n").unwrap_err(), PrtError::Unsupported { line: 1, .. }));
+        assert!(
+            matches!(
+                e,
+                PrtError::Truncated {
+                    found: 1,
+                    expected: 2,
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        assert!(matches!(
+            parse("PRT2\n1\n1\n1\n").unwrap_err(),
+            PrtError::Unsupported { line: 1, .. }
+        ));
     }
 }

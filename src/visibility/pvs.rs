@@ -50,7 +50,11 @@ pub struct PvsSettings {
 
 impl Default for PvsSettings {
     fn default() -> Self {
-        PvsSettings { epsilon_rel: 1e-6, base_only: false, max_steps_per_source: 20_000 }
+        PvsSettings {
+            epsilon_rel: 1e-6,
+            base_only: false,
+            max_steps_per_source: 5_000,
+        }
     }
 }
 
@@ -149,7 +153,11 @@ fn chop(w: &[P3], n: &P3, d: f64, eps: f64) -> Option<Vec<P3>> {
         if (a > eps && b < -eps) || (a < -eps && b > eps) {
             let t = a / (a - b);
             let (p, q) = (&w[i], &w[j]);
-            out.push([p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1]), p[2] + t * (q[2] - p[2])]);
+            out.push([
+                p[0] + t * (q[0] - p[0]),
+                p[1] + t * (q[1] - p[1]),
+                p[2] + t * (q[2] - p[2]),
+            ]);
         }
     }
     (out.len() >= 3).then_some(out)
@@ -256,7 +264,8 @@ impl Flow<'_> {
             let p = &self.dp[pi as usize];
             if self.on_stack[p.piece as usize]
                 || (self.convex && self.cell_on_stack[p.to as usize])
-                || prev.might[p.to as usize / 64] & (1 << (p.to % 64)) == 0 {
+                || prev.might[p.to as usize / 64] & (1 << (p.to % 64)) == 0
+            {
                 continue;
             }
             let test = match &self.fin[pi as usize] {
@@ -275,14 +284,18 @@ impl Flow<'_> {
             if dot(&prev.n, &p.n) < -1.0 + 1e-12 {
                 continue;
             }
-            let Some(pass) = chop(&p.poly, &self.root_n, self.root_d, self.eps) else { continue };
+            let Some(pass) = chop(&p.poly, &self.root_n, self.root_d, self.eps) else {
+                continue;
+            };
             let Some(source) = chop(&prev.source, &[-p.n[0], -p.n[1], -p.n[2]], -p.d, self.eps) else {
                 continue;
             };
             let pass = match &prev.pass {
                 None => pass,
                 Some(prev_pass) => {
-                    let Some(pass) = chop(&pass, &prev.n, prev.d, self.eps) else { continue };
+                    let Some(pass) = chop(&pass, &prev.n, prev.d, self.eps) else {
+                        continue;
+                    };
                     let Some(pass) = clip_to_separators(&source, prev_pass, pass, false, self.eps) else {
                         continue;
                     };
@@ -300,7 +313,13 @@ impl Flow<'_> {
                 }
                 continue;
             }
-            let frame = Frame { source, pass: Some(pass), n: p.n, d: p.d, might: &might };
+            let frame = Frame {
+                source,
+                pass: Some(pass),
+                n: p.n,
+                d: p.d,
+                might: &might,
+            };
             let (to, piece) = (p.to, p.piece as usize);
             self.on_stack[piece] = true;
             self.cell_on_stack[to as usize] = true;
@@ -328,7 +347,11 @@ fn compute_inner(graph: &PortalGraph, settings: &PvsSettings) -> Pvs {
     let n = graph.cells;
     let eps = settings.epsilon_rel * graph.diagonal();
     let area_min = (eps * eps).max(f64::MIN_POSITIVE);
-    let mut stats = PvsStats { cells: n, portals: graph.portals.len(), ..Default::default() };
+    let mut stats = PvsStats {
+        cells: n,
+        portals: graph.portals.len(),
+        ..Default::default()
+    };
     let mut sets: Vec<BitSet> = (0..n)
         .map(|c| {
             let mut b = BitSet::new(n);
@@ -355,11 +378,23 @@ fn compute_inner(graph: &PortalGraph, settings: &PvsSettings) -> Pvs {
             let c = crate::base::vec::mean(q);
             let d = dot(&nn, &c);
             out[a as usize].push(dp.len() as u32);
-            dp.push(DPortal { to: b, piece, poly: q.clone(), n: nn, d });
+            dp.push(DPortal {
+                to: b,
+                piece,
+                poly: q.clone(),
+                n: nn,
+                d,
+            });
             let mut r = q.clone();
             r[1..].reverse();
             out[b as usize].push(dp.len() as u32);
-            dp.push(DPortal { to: a, piece, poly: r, n: [-nn[0], -nn[1], -nn[2]], d: -d });
+            dp.push(DPortal {
+                to: a,
+                piece,
+                poly: r,
+                n: [-nn[0], -nn[1], -nn[2]],
+                d: -d,
+            });
             piece += 1;
         }
     }
@@ -432,7 +467,13 @@ fn compute_inner(graph: &PortalGraph, settings: &PvsSettings) -> Pvs {
             convex: graph.convex_cells,
             cell_on_stack: std::mem::take(&mut cell_on_stack),
         };
-        let root = Frame { source: s.poly.clone(), pass: None, n: s.n, d: s.d, might: base[k].words() };
+        let root = Frame {
+            source: s.poly.clone(),
+            pass: None,
+            n: s.n,
+            d: s.d,
+            might: base[k].words(),
+        };
         flow.on_stack[s.piece as usize] = true;
         flow.cell_on_stack[from[k] as usize] = true;
         flow.cell_on_stack[s.to as usize] = true;
@@ -484,9 +525,18 @@ mod tests {
             cells: 4,
             convex_cells: true,
             portals: vec![
-                GraphPortal { cells: [0, 1], pieces: vec![square(1.0, 0.0, 1.0, 0.0, 1.0)] },
-                GraphPortal { cells: [1, 2], pieces: vec![square(2.0, 0.0, 1.0, 0.0, 1.0)] },
-                GraphPortal { cells: [2, 3], pieces: vec![square(3.0, shift, shift + 1.0, 0.0, 1.0)] },
+                GraphPortal {
+                    cells: [0, 1],
+                    pieces: vec![square(1.0, 0.0, 1.0, 0.0, 1.0)],
+                },
+                GraphPortal {
+                    cells: [1, 2],
+                    pieces: vec![square(2.0, 0.0, 1.0, 0.0, 1.0)],
+                },
+                GraphPortal {
+                    cells: [2, 3],
+                    pieces: vec![square(3.0, shift, shift + 1.0, 0.0, 1.0)],
+                },
             ],
         };
         let pvs = compute(&mk(0.0), &PvsSettings::default());

@@ -92,14 +92,30 @@ impl RayCaster {
                     if let Some((t, front)) = tri_hit(&origin, &dir, &self.tris[k as usize]) {
                         if t > t_min && t < best_t {
                             best_t = t;
-                            best = Some(Hit { t, polygon: self.owner[k as usize], front });
+                            best = Some(Hit {
+                                t,
+                                polygon: self.owner[k as usize],
+                                front,
+                            });
                         }
                     }
                 }
             } else {
                 let (l, r) = (ni + 1, nd.first);
-                let tl = slab(&origin, &inv, &self.nodes[l as usize].lo, &self.nodes[l as usize].hi, best_t);
-                let tr = slab(&origin, &inv, &self.nodes[r as usize].lo, &self.nodes[r as usize].hi, best_t);
+                let tl = slab(
+                    &origin,
+                    &inv,
+                    &self.nodes[l as usize].lo,
+                    &self.nodes[l as usize].hi,
+                    best_t,
+                );
+                let tr = slab(
+                    &origin,
+                    &inv,
+                    &self.nodes[r as usize].lo,
+                    &self.nodes[r as usize].hi,
+                    best_t,
+                );
                 match (tl, tr) {
                     (Some(a), Some(b)) => {
                         if a <= b {
@@ -124,7 +140,12 @@ fn build(tris: &[[P3; 3]], idx: &mut [u32], offset: u32, nodes: &mut Vec<Node>) 
     let me = nodes.len() as u32;
     let sel: Vec<[P3; 3]> = idx.iter().map(|&i| tris[i as usize]).collect();
     let (lo, hi) = bounds(&sel);
-    nodes.push(Node { lo, hi, first: offset, count: idx.len() as u32 });
+    nodes.push(Node {
+        lo,
+        hi,
+        first: offset,
+        count: idx.len() as u32,
+    });
     if idx.len() <= LEAF {
         return me;
     }
@@ -139,7 +160,9 @@ fn build(tris: &[[P3; 3]], idx: &mut [u32], offset: u32, nodes: &mut Vec<Node>) 
             chi[k] = chi[k].max(c(i, k));
         }
     }
-    let axis = (0..3).max_by(|&a, &b| (chi[a] - clo[a]).total_cmp(&(chi[b] - clo[b]))).unwrap_or(0);
+    let axis = (0..3)
+        .max_by(|&a, &b| (chi[a] - clo[a]).total_cmp(&(chi[b] - clo[b])))
+        .unwrap_or(0);
     let mid = idx.len() / 2;
     idx.select_nth_unstable_by(mid, |&a, &b| c(a, axis).total_cmp(&c(b, axis)).then(a.cmp(&b)));
     let (left, right) = idx.split_at_mut(mid);

@@ -32,7 +32,11 @@ pub struct SampleSettings {
 
 impl Default for SampleSettings {
     fn default() -> Self {
-        SampleSettings { seed: 1, points_per_cell: 16, rays_per_point: 64 }
+        SampleSettings {
+            seed: 1,
+            points_per_cell: 16,
+            rays_per_point: 64,
+        }
     }
 }
 
@@ -143,7 +147,10 @@ pub fn check(
             faces_of[p as usize].push(c as u32);
         }
     }
-    let mut rep = SampleReport { seed: settings.seed, ..Default::default() };
+    let mut rep = SampleReport {
+        seed: settings.seed,
+        ..Default::default()
+    };
     let mut out = Vec::with_capacity(pieces.len());
     let mut stamp = vec![u32::MAX; model.polygons.len()];
     let (mut vol, mut est) = (0.0, 0.0);
@@ -203,7 +210,11 @@ pub fn check(
         }
         vol += total;
         est += total * hit_tris as f64;
-        out.push(CellSample { polygons_hit: hit_polys, triangles_hit: hit_tris, overestimation: over });
+        out.push(CellSample {
+            polygons_hit: hit_polys,
+            triangles_hit: hit_tris,
+            overestimation: over,
+        });
     }
     ratios.sort_by(f64::total_cmp);
     if !ratios.is_empty() {
