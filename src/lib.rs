@@ -31,6 +31,7 @@ pub mod pipeline;
 pub mod predicates;
 pub mod suite;
 pub mod tolerances;
+pub mod visibility;
 
 pub use ids::{CellId, PolygonId, TetId, VertexId};
 pub use tolerances::Tolerances;

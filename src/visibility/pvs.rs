@@ -1,0 +1,551 @@
+//! Cell-to-cell PVS by portal flow (Quake's `vis`, after Teller & Séquin 1991).
+//!
+//! Every portal piece between cells `a` and `b` gives two *directed* portals (`a → b` with
+//! its plane's normal pointing into `b`, and the reverse). For each directed portal `s` (the
+//! *source*) the flow finds the cells some line through `s` may reach: it walks the portal
+//! graph depth-first from the cell `s` leads into, and for each next portal `t` keeps only
+//! the part of it that such a line can still reach:
+//!
+//! 1. `t` is chopped to the front of the source's plane, and the source to the back of
+//!    `t`'s plane (a line crosses each plane once, in the direction of the normals);
+//! 2. from the third portal on, `t` is chopped to the front of the previous portal's plane
+//!    and clipped by the *separating planes* through an edge of the source and a vertex of
+//!    the previous portal (the pass), in both roles (vis's `ClipToSeperators`): the planes
+//!    that put the source on one side and the pass on the other bound the antipenumbra.
+//!
+//! A branch ends when the clipped portal is empty. The set of cells is a superset of the
+//! exact answer (Teller's stabbing lines), since only the source and the pass clip the
+//! target. Pruning as in vis: a *base* visibility per directed portal first (a flood fill
+//! through the portals that lie partly in front of the source and that the source lies
+//! partly behind), then portals in order of increasing base visibility, each branch cut when
+//! what it could still see (the intersection of the base or final visibilities along the
+//! chain) holds no cell not already found. A portal piece is never entered twice in one
+//! chain (a line meets a plane once) — needed for merged cells, which are not convex.
+//!
+//! Conservative in doubt: points within `epsilon` of a plane count as on it and are kept;
+//! planes that do not separate strictly (source or pass coplanar with them) are not used;
+//! pieces of (nearly) zero area do not pass the flow but their neighbour is still visible.
+//! A cell's interior sees all its own portals (see the [module docs](super)).
+
+use super::{BitSet, PortalGraph};
+use crate::base::vec::{P3, cross, dot, norm, sub};
+use serde::{Deserialize, Serialize};
+use std::time::Instant;
+
+/// PVS settings.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PvsSettings {
+    /// On-plane tolerance relative to the portal graph's bounding-box diagonal (Quake's
+    /// `ON_EPSILON` is 0.1 units, about 2.5e-5 of a level's diagonal).
+    pub epsilon_rel: f64,
+    /// Stop after the base visibility (the flood fill); the result is a coarser PVS.
+    pub base_only: bool,
+    /// Work bound per source portal, in flow steps. Once a source's flow has taken this
+    /// many steps, each further branch that passes the clipping is not followed: every cell
+    /// it could still see (the intersection of the bounds along its chain) is marked
+    /// visible instead. Conservative, and it bounds the cost of dense graphs (the complex's
+    /// own tetrahedral cells), where the number of portal sequences explodes.
+    pub max_steps_per_source: u64,
+}
+
+impl Default for PvsSettings {
+    fn default() -> Self {
+        PvsSettings {
+            epsilon_rel: 1e-6,
+            base_only: false,
+            max_steps_per_source: 5_000,
+        }
+    }
+}
+
+/// Counters and timings of a PVS computation.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct PvsStats {
+    /// Cells.
+    pub cells: usize,
+    /// Undirected portals (cell pairs).
+    pub portals: usize,
+    /// Directed portal pieces (twice the convex pieces).
+    pub directed_portals: usize,
+    /// Pieces of (nearly) zero area left out of the flow.
+    pub degenerate_pieces: usize,
+    /// Mean base visibility (cells) per directed portal.
+    pub mean_base_vis: f64,
+    /// Recursive flow steps (cells entered).
+    pub chains: u64,
+    /// Source portals whose flow reached [`PvsSettings::max_steps_per_source`].
+    pub sources_truncated: usize,
+    /// Branches not followed because of it (their bounds marked visible instead).
+    pub branches_truncated: u64,
+    /// Seconds for the base visibility.
+    pub base_seconds: f64,
+    /// Seconds for the portal flow.
+    pub flow_seconds: f64,
+}
+
+/// Potentially visible sets, one per cell (a cell is always in its own).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Pvs {
+    /// `sets[c]`: the cells cell `c` may see.
+    pub sets: Vec<BitSet>,
+    /// Counters and timings.
+    pub stats: PvsStats,
+}
+
+impl Pvs {
+    /// Mean PVS size in cells.
+    pub fn mean_size(&self) -> f64 {
+        if self.sets.is_empty() {
+            return 0.0;
+        }
+        self.sets.iter().map(|s| s.count()).sum::<usize>() as f64 / self.sets.len() as f64
+    }
+    /// Largest PVS size in cells.
+    pub fn max_size(&self) -> usize {
+        self.sets.iter().map(|s| s.count()).max().unwrap_or(0)
+    }
+    /// Whether `a` may see `b`.
+    pub fn sees(&self, a: usize, b: usize) -> bool {
+        self.sets[a].contains(b)
+    }
+}
+
+#[derive(Clone, Debug)]
+struct DPortal {
+    to: u32,
+    piece: u32,
+    poly: Vec<P3>,
+    n: P3,
+    d: f64,
+}
+
+/// Chops `w` to the front of `n·x = d` (points within `eps` count as on it and are kept).
+/// `None` when nothing is strictly in front.
+fn chop(w: &[P3], n: &P3, d: f64, eps: f64) -> Option<Vec<P3>> {
+    let mut dist = [0.0f64; 64];
+    let mut big = Vec::new();
+    let ds: &mut [f64] = if w.len() <= 64 {
+        &mut dist[..w.len()]
+    } else {
+        big.resize(w.len(), 0.0);
+        &mut big
+    };
+    let (mut front, mut back) = (false, false);
+    for (k, p) in w.iter().enumerate() {
+        let s = dot(n, p) - d;
+        ds[k] = s;
+        front |= s > eps;
+        back |= s < -eps;
+    }
+    if !back {
+        return Some(w.to_vec());
+    }
+    if !front {
+        return None;
+    }
+    let mut out = Vec::with_capacity(w.len() + 2);
+    for i in 0..w.len() {
+        let j = (i + 1) % w.len();
+        let (a, b) = (ds[i], ds[j]);
+        if a >= -eps {
+            out.push(w[i]);
+        }
+        if (a > eps && b < -eps) || (a < -eps && b > eps) {
+            let t = a / (a - b);
+            let (p, q) = (&w[i], &w[j]);
+            out.push([
+                p[0] + t * (q[0] - p[0]),
+                p[1] + t * (q[1] - p[1]),
+                p[2] + t * (q[2] - p[2]),
+            ]);
+        }
+    }
+    (out.len() >= 3).then_some(out)
+}
+
+/// Clips `target` by the planes through an edge of `source` and a vertex of `pass` that
+/// have all of `source` on one side and all of `pass` on the other, keeping the pass side
+/// (or, with `flip`, the source side). vis's `ClipToSeperators`.
+fn clip_to_separators(source: &[P3], pass: &[P3], mut target: Vec<P3>, flip: bool, eps: f64) -> Option<Vec<P3>> {
+    let ns = source.len();
+    for i in 0..ns {
+        let l = (i + 1) % ns;
+        let v1 = sub(&source[l], &source[i]);
+        for (j, pj) in pass.iter().enumerate() {
+            let v2 = sub(pj, &source[i]);
+            let mut n = cross(&v1, &v2);
+            let len = norm(&n);
+            // Not a valid plane (pass vertex on the source edge's line): skip.
+            if len <= eps * (norm(&v1) + norm(&v2)).max(f64::MIN_POSITIVE) {
+                continue;
+            }
+            n = [n[0] / len, n[1] / len, n[2] / len];
+            let mut d = dot(&n, pj);
+            // Which side is the source on?
+            let mut flip_test = None;
+            for (k, sk) in source.iter().enumerate() {
+                if k == i || k == l {
+                    continue;
+                }
+                let s = dot(&n, sk) - d;
+                if s < -eps {
+                    flip_test = Some(false);
+                    break;
+                } else if s > eps {
+                    flip_test = Some(true);
+                    break;
+                }
+            }
+            let Some(flip_test) = flip_test else { continue }; // coplanar with the source
+            if flip_test {
+                n = [-n[0], -n[1], -n[2]];
+                d = -d;
+            }
+            // All of the pass on the positive side (some strictly)?
+            let mut strict = false;
+            let mut ok = true;
+            for (k, pk) in pass.iter().enumerate() {
+                if k == j {
+                    continue;
+                }
+                let s = dot(&n, pk) - d;
+                if s < -eps {
+                    ok = false;
+                    break;
+                }
+                strict |= s > eps;
+            }
+            if !ok || !strict {
+                continue;
+            }
+            if flip {
+                n = [-n[0], -n[1], -n[2]];
+                d = -d;
+            }
+            target = chop(&target, &n, d, eps)?;
+        }
+    }
+    Some(target)
+}
+
+struct Frame<'a> {
+    source: Vec<P3>,
+    pass: Option<Vec<P3>>,
+    n: P3,
+    d: f64,
+    might: &'a [u64],
+}
+
+struct Flow<'a> {
+    dp: &'a [DPortal],
+    out: &'a [Vec<u32>],
+    base: &'a [BitSet],
+    fin: &'a [Option<BitSet>],
+    on_stack: Vec<bool>,
+    vis: BitSet,
+    eps: f64,
+    root_n: P3,
+    root_d: f64,
+    chains: u64,
+    budget: u64,
+    truncated: u64,
+    /// Cells are convex (a line enters each at most once).
+    convex: bool,
+    cell_on_stack: Vec<bool>,
+}
+
+impl Flow<'_> {
+    fn flow(&mut self, cell: u32, prev: &Frame) {
+        self.chains += 1;
+        self.vis.insert(cell as usize);
+        let words = prev.might.len();
+        let mut might = vec![0u64; words];
+        for &pi in &self.out[cell as usize] {
+            let p = &self.dp[pi as usize];
+            if self.on_stack[p.piece as usize]
+                || (self.convex && self.cell_on_stack[p.to as usize])
+                || prev.might[p.to as usize / 64] & (1 << (p.to % 64)) == 0
+            {
+                continue;
+            }
+            let test = match &self.fin[pi as usize] {
+                Some(f) => f.words(),
+                None => self.base[pi as usize].words(),
+            };
+            let mut more = 0u64;
+            for k in 0..words {
+                might[k] = prev.might[k] & test[k];
+                more |= might[k] & !self.vis.words()[k];
+            }
+            if more == 0 {
+                continue;
+            }
+            // A line cannot leave through a plane facing back the way it came.
+            if dot(&prev.n, &p.n) < -1.0 + 1e-12 {
+                continue;
+            }
+            let Some(pass) = chop(&p.poly, &self.root_n, self.root_d, self.eps) else {
+                continue;
+            };
+            let Some(source) = chop(&prev.source, &[-p.n[0], -p.n[1], -p.n[2]], -p.d, self.eps) else {
+                continue;
+            };
+            let pass = match &prev.pass {
+                None => pass,
+                Some(prev_pass) => {
+                    let Some(pass) = chop(&pass, &prev.n, prev.d, self.eps) else {
+                        continue;
+                    };
+                    let Some(pass) = clip_to_separators(&source, prev_pass, pass, false, self.eps) else {
+                        continue;
+                    };
+                    let Some(pass) = clip_to_separators(prev_pass, &source, pass, true, self.eps) else {
+                        continue;
+                    };
+                    pass
+                }
+            };
+            if self.chains >= self.budget {
+                // Out of budget: everything this branch could still see is visible.
+                self.truncated += 1;
+                for (v, m) in self.vis.words_mut().iter_mut().zip(&might) {
+                    *v |= m;
+                }
+                continue;
+            }
+            let frame = Frame {
+                source,
+                pass: Some(pass),
+                n: p.n,
+                d: p.d,
+                might: &might,
+            };
+            let (to, piece) = (p.to, p.piece as usize);
+            self.on_stack[piece] = true;
+            self.cell_on_stack[to as usize] = true;
+            self.flow(to, &frame);
+            self.cell_on_stack[to as usize] = false;
+            self.on_stack[piece] = false;
+        }
+    }
+}
+
+/// Computes the PVS of every cell of `graph`.
+pub fn compute(graph: &PortalGraph, settings: &PvsSettings) -> Pvs {
+    // Deep chains recurse deeply: run on a thread with a large stack.
+    std::thread::scope(|s| {
+        std::thread::Builder::new()
+            .stack_size(512 << 20)
+            .spawn_scoped(s, || compute_inner(graph, settings))
+            .expect("cannot spawn the PVS thread")
+            .join()
+            .expect("PVS thread panicked")
+    })
+}
+
+fn compute_inner(graph: &PortalGraph, settings: &PvsSettings) -> Pvs {
+    let n = graph.cells;
+    let eps = settings.epsilon_rel * graph.diagonal();
+    let area_min = (eps * eps).max(f64::MIN_POSITIVE);
+    let mut stats = PvsStats {
+        cells: n,
+        portals: graph.portals.len(),
+        ..Default::default()
+    };
+    let mut sets: Vec<BitSet> = (0..n)
+        .map(|c| {
+            let mut b = BitSet::new(n);
+            b.insert(c);
+            b
+        })
+        .collect();
+    // Directed portals.
+    let mut dp = Vec::new();
+    let mut out: Vec<Vec<u32>> = vec![Vec::new(); n];
+    let mut piece = 0u32;
+    for gp in &graph.portals {
+        let [a, b] = gp.cells;
+        sets[a as usize].insert(b as usize);
+        sets[b as usize].insert(a as usize);
+        for q in &gp.pieces {
+            let nv = crate::base::vec::fan_normal(q);
+            let len = norm(&nv);
+            if q.len() < 3 || !len.is_finite() || 0.5 * len <= area_min {
+                stats.degenerate_pieces += 1;
+                continue;
+            }
+            let nn = [nv[0] / len, nv[1] / len, nv[2] / len];
+            let c = crate::base::vec::mean(q);
+            let d = dot(&nn, &c);
+            out[a as usize].push(dp.len() as u32);
+            dp.push(DPortal {
+                to: b,
+                piece,
+                poly: q.clone(),
+                n: nn,
+                d,
+            });
+            let mut r = q.clone();
+            r[1..].reverse();
+            out[b as usize].push(dp.len() as u32);
+            dp.push(DPortal {
+                to: a,
+                piece,
+                poly: r,
+                n: [-nn[0], -nn[1], -nn[2]],
+                d: -d,
+            });
+            piece += 1;
+        }
+    }
+    stats.directed_portals = dp.len();
+    // Base visibility: flood through portals partly in front of the source that the source
+    // lies partly behind.
+    let t0 = Instant::now();
+    let front_of = |p: &DPortal, t: &DPortal| -> bool {
+        t.poly.iter().any(|v| dot(&p.n, v) - p.d > eps) && p.poly.iter().any(|v| dot(&t.n, v) - t.d < -eps)
+    };
+    let mut base = Vec::with_capacity(dp.len());
+    let mut stack = Vec::new();
+    for p in &dp {
+        let mut seen = BitSet::new(n);
+        seen.insert(p.to as usize);
+        stack.clear();
+        stack.push(p.to);
+        while let Some(c) = stack.pop() {
+            for &ti in &out[c as usize] {
+                let t = &dp[ti as usize];
+                if t.piece != p.piece && !seen.contains(t.to as usize) && front_of(p, t) {
+                    seen.insert(t.to as usize);
+                    stack.push(t.to);
+                }
+            }
+        }
+        base.push(seen);
+    }
+    stats.base_seconds = t0.elapsed().as_secs_f64();
+    if !dp.is_empty() {
+        stats.mean_base_vis = base.iter().map(|b| b.count()).sum::<usize>() as f64 / dp.len() as f64;
+    }
+    let from: Vec<u32> = {
+        let mut f = vec![0u32; dp.len()];
+        for (c, ps) in out.iter().enumerate() {
+            for &p in ps {
+                f[p as usize] = c as u32;
+            }
+        }
+        f
+    };
+    if settings.base_only {
+        for (k, b) in base.iter().enumerate() {
+            sets[from[k] as usize].union_with(b);
+        }
+        return Pvs { sets, stats };
+    }
+    // Portal flow, fewest base-visible cells first.
+    let t0 = Instant::now();
+    let mut order: Vec<usize> = (0..dp.len()).collect();
+    order.sort_by_key(|&k| (base[k].count(), k));
+    let mut fin: Vec<Option<BitSet>> = vec![None; dp.len()];
+    let mut on_stack = vec![false; piece as usize];
+    let mut cell_on_stack = vec![false; n];
+    for &k in &order {
+        let s = &dp[k];
+        let mut flow = Flow {
+            dp: &dp,
+            out: &out,
+            base: &base,
+            fin: &fin,
+            on_stack: std::mem::take(&mut on_stack),
+            vis: BitSet::new(n),
+            eps,
+            root_n: s.n,
+            root_d: s.d,
+            chains: 0,
+            budget: settings.max_steps_per_source,
+            truncated: 0,
+            convex: graph.convex_cells,
+            cell_on_stack: std::mem::take(&mut cell_on_stack),
+        };
+        let root = Frame {
+            source: s.poly.clone(),
+            pass: None,
+            n: s.n,
+            d: s.d,
+            might: base[k].words(),
+        };
+        flow.on_stack[s.piece as usize] = true;
+        flow.cell_on_stack[from[k] as usize] = true;
+        flow.cell_on_stack[s.to as usize] = true;
+        flow.flow(s.to, &root);
+        flow.cell_on_stack[s.to as usize] = false;
+        flow.cell_on_stack[from[k] as usize] = false;
+        flow.on_stack[s.piece as usize] = false;
+        stats.chains += flow.chains;
+        stats.sources_truncated += (flow.truncated > 0) as usize;
+        stats.branches_truncated += flow.truncated;
+        on_stack = flow.on_stack;
+        cell_on_stack = flow.cell_on_stack;
+        let vis = flow.vis;
+        fin[k] = Some(vis);
+    }
+    for (k, f) in fin.iter().enumerate() {
+        if let Some(f) = f {
+            sets[from[k] as usize].union_with(f);
+        }
+    }
+    stats.flow_seconds = t0.elapsed().as_secs_f64();
+    Pvs { sets, stats }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::visibility::GraphPortal;
+
+    fn square(x: f64, y0: f64, y1: f64, z0: f64, z1: f64) -> Vec<P3> {
+        // Normal +x: counter-clockwise seen from +x.
+        vec![[x, y0, z0], [x, y1, z0], [x, y1, z1], [x, y0, z1]]
+    }
+
+    #[test]
+    fn chop_keeps_front() {
+        let w = square(0.0, 0.0, 1.0, 0.0, 1.0);
+        let c = chop(&w, &[0.0, 1.0, 0.0], 0.5, 1e-9).unwrap();
+        assert!(c.iter().all(|p| p[1] >= 0.5 - 1e-12));
+        assert!(chop(&w, &[0.0, 1.0, 0.0], 2.0, 1e-9).is_none());
+        assert_eq!(chop(&w, &[0.0, 1.0, 0.0], -1.0, 1e-9).unwrap(), w);
+    }
+
+    /// Cells 0..4 in a row along x, separated by unit square portals at x = 1, 2, 3; the
+    /// last portal is shifted in y so far that no line passes all three.
+    #[test]
+    fn row_of_portals() {
+        let mk = |shift: f64| PortalGraph {
+            cells: 4,
+            convex_cells: true,
+            portals: vec![
+                GraphPortal {
+                    cells: [0, 1],
+                    pieces: vec![square(1.0, 0.0, 1.0, 0.0, 1.0)],
+                },
+                GraphPortal {
+                    cells: [1, 2],
+                    pieces: vec![square(2.0, 0.0, 1.0, 0.0, 1.0)],
+                },
+                GraphPortal {
+                    cells: [2, 3],
+                    pieces: vec![square(3.0, shift, shift + 1.0, 0.0, 1.0)],
+                },
+            ],
+        };
+        let pvs = compute(&mk(0.0), &PvsSettings::default());
+        assert!(pvs.sees(0, 3) && pvs.sees(3, 0));
+        // Lines through y in [0,1] at x = 1 and at x = 2 reach y in [-1, 2] at x = 3.
+        let pvs = compute(&mk(1.5), &PvsSettings::default());
+        assert!(pvs.sees(0, 3), "shift 1.5 is still visible");
+        let pvs = compute(&mk(2.5), &PvsSettings::default());
+        assert!(!pvs.sees(0, 3) && !pvs.sees(3, 0));
+        assert!(pvs.sees(0, 2) && pvs.sees(1, 3));
+    }
+}
