@@ -1,3 +1,4 @@
+#![allow(clippy::needless_range_loop)]
 //! Visibility: PVS on hand-made scenes with known answers, conservativeness by sampling on
 //! every test model, the PRT1 reader on e1m1, and (ignored) the e1m1 measurements.
 
@@ -175,7 +176,7 @@ fn pvs_is_conservative_by_sampling() {
         ("four_rooms".into(), portalfind::generate::four_rooms::four_rooms()),
     ];
     for name in ["four_room_optimized", "caverns"] {
-        models.push((name.into(), portalfind::thesis_models::by_name(name).unwrap().soup));
+        models.push((name.into(), portalfind::generate::thesis::by_name(name).unwrap().soup));
     }
     let ss = SampleSettings {
         seed: 7,
@@ -325,7 +326,7 @@ fn e1m1_measurements() {
     // Our partition.
     let model = portalfind::model::load_model(Path::new("models/quake/e1m1.obj")).expect("e1m1.obj");
     let t0 = Instant::now();
-    let (cx, _, _) = portalfind::experiment::build_cells(&model, portalfind::complex::Subdivision::Delaunay).unwrap();
+    let cx = portalfind::pipeline::complex_of(&model).unwrap();
     println!(
         "complex: {} active cells, {:.1} s",
         cx.stats.active_cells,

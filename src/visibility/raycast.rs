@@ -89,15 +89,16 @@ impl RayCaster {
             }
             if nd.count > 0 {
                 for k in nd.first..nd.first + nd.count {
-                    if let Some((t, front)) = tri_hit(&origin, &dir, &self.tris[k as usize]) {
-                        if t > t_min && t < best_t {
-                            best_t = t;
-                            best = Some(Hit {
-                                t,
-                                polygon: self.owner[k as usize],
-                                front,
-                            });
-                        }
+                    if let Some((t, front)) = tri_hit(&origin, &dir, &self.tris[k as usize])
+                        && t > t_min
+                        && t < best_t
+                    {
+                        best_t = t;
+                        best = Some(Hit {
+                            t,
+                            polygon: self.owner[k as usize],
+                            front,
+                        });
                     }
                 }
             } else {
