@@ -2,7 +2,7 @@
 //! bounding-volume hierarchy over the polygons' fan triangles.
 //!
 //! The tree is built by median splits on the longest axis of the triangles' centroid box,
-//! leaves of at most [`LEAF`] triangles. A query is a best-first descent that skips only
+//! leaves of at most `LEAF` (4) triangles. A query is a best-first descent that skips only
 //! nodes whose box is at least as far as the nearest triangle found so far, so its answer
 //! is the minimum of the point–triangle distances (Ericson 2005, 5.1.5) over *all*
 //! triangles, whatever the tree's shape: the same inputs give the same bits.

@@ -1,6 +1,6 @@
 //! First-hit ray casting against a model's polygons: a bounding-volume hierarchy over their
 //! fan triangles (median splits on the longest centroid axis, as in
-//! [`crate::rooms`]'s clearance field), Möller–Trumbore intersection, nearest hit first.
+//! [`crate::geom::clearance`]), Möller–Trumbore intersection, nearest hit first.
 
 use crate::base::vec::{P3, cross, dot, sub};
 use crate::model::Model;
