@@ -335,7 +335,7 @@ fn stop_rules_parse_and_apply() {
         assert!(bad.parse::<StopRule>().is_err(), "{bad}");
     }
     // cells:0 would run to exhaustion (there is always at least one cell left).
-    let e = "cells:0".parse::<StopRule>().unwrap_err();
+    let e = "cells:0".parse::<StopRule>().unwrap_err().to_string();
     assert!(e.contains("cells:0") && e.contains("at least 1"), "{e}");
     // Weights are positive and finite: a threshold <= 0 would stop before the first collapse,
     // an infinite one never.
@@ -348,7 +348,7 @@ fn stop_rules_parse_and_apply() {
         "threshold:NaN",
         "threshold:1e999",
     ] {
-        let e = bad.parse::<StopRule>().unwrap_err();
+        let e = bad.parse::<StopRule>().unwrap_err().to_string();
         assert!(
             e.contains(bad) && e.contains("finite") && e.contains("> 0") && e.contains("positive"),
             "{bad}: {e}"

@@ -141,11 +141,9 @@ impl StopRule {
 }
 
 impl FromStr for StopRule {
-    // `String` until `experiment::Definition::parse` takes the typed error (it passes this
-    // one on as a `String`); then `StopRuleError`.
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        StopRule::parse(s).map_err(|e| e.to_string())
+    type Err = StopRuleError;
+    fn from_str(s: &str) -> Result<Self, StopRuleError> {
+        StopRule::parse(s)
     }
 }
 

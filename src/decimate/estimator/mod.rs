@@ -148,11 +148,9 @@ impl fmt::Display for Estimator {
 }
 
 impl FromStr for Estimator {
-    // `String` until `experiment::Definition::parse` takes the typed error (it passes this
-    // one on as a `String`); then `UnknownName`.
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        Estimator::parse(s).map_err(|e| e.to_string())
+    type Err = UnknownName;
+    fn from_str(s: &str) -> Result<Self, UnknownName> {
+        Estimator::parse(s)
     }
 }
 
@@ -188,7 +186,7 @@ mod tests {
             "unknown estimator \"nope\"; use bbox, hull or union"
         );
         assert_eq!(
-            "nope".parse::<Estimator>().unwrap_err(),
+            "nope".parse::<Estimator>().unwrap_err().to_string(),
             "unknown estimator \"nope\"; use bbox, hull or union"
         );
     }

@@ -162,11 +162,9 @@ impl fmt::Display for HeuristicKind {
 }
 
 impl FromStr for HeuristicKind {
-    // `String` until `experiment::Definition::parse` takes the typed error (it passes this
-    // one on as a `String`); then `UnknownName`.
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        HeuristicKind::parse(s).map_err(|e| e.to_string())
+    type Err = UnknownName;
+    fn from_str(s: &str) -> Result<Self, UnknownName> {
+        HeuristicKind::parse(s)
     }
 }
 
