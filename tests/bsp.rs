@@ -3,9 +3,12 @@
 //! decimation; deterministic output; the counts and the portal comparison with the
 //! Delaunay method that the thesis reports (printed; run with `--nocapture`).
 
+mod common;
+use common::locate;
+
 use portalfind::bsp::{self, BspSettings, BspStats};
 use portalfind::complex::{CellComplex, HULL};
-use portalfind::decimate::{Decimation, Estimator, HeuristicKind, Partition, QueueMode, Settings, StopRule};
+use portalfind::decimate::{Decimation, Estimator, HeuristicKind, QueueMode, Settings, StopRule};
 use portalfind::delaunay::Tetrahedralization;
 use portalfind::generate::scenes::{self, Soup};
 use portalfind::generate::thesis as thesis_models;
@@ -59,12 +62,6 @@ fn two_room_samples(r: usize) -> Vec<[f64; 3]> {
         }
     }
     v
-}
-
-fn locate(cx: &CellComplex, part: &Partition, p: &[f64; 3]) -> Option<usize> {
-    cx.active_cells()
-        .find(|(_, c)| c.poly.contains(p, &cx.tol))
-        .and_then(|(id, _)| part.cell_of(id))
 }
 
 #[test]

@@ -1,6 +1,9 @@
 //! The `clearance` heuristic (a persistence merge on the clearance field) on the thesis
 //! models and e1m1.
 
+mod common;
+use common::locate;
+
 use portalfind::complex::CellComplex;
 use portalfind::decimate::clearance::DEFAULT_RATIO;
 use portalfind::decimate::{Decimation, HeuristicKind, Partition, Settings, StopRule};
@@ -13,21 +16,11 @@ fn settings(stop: StopRule) -> Settings {
     }
 }
 
-fn locate(cx: &CellComplex, p: &[f64; 3]) -> Option<u32> {
-    cx.active_cells()
-        .find(|(_, c)| c.poly.contains(p, &cx.tol))
-        .map(|(id, _)| id.0)
-}
-
 /// Rooms whose samples all lie in one final cell holding no other room's samples.
 fn isolated(cx: &CellComplex, part: &Partition, rooms: &[Vec<[f64; 3]>]) -> usize {
     let cells: Vec<Vec<Option<usize>>> = rooms
         .iter()
-        .map(|r| {
-            r.iter()
-                .map(|p| locate(cx, p).and_then(|c| part.cell_of(portalfind::CellId(c))))
-                .collect()
-        })
+        .map(|r| r.iter().map(|p| locate(cx, part, p)).collect())
         .collect();
     (0..rooms.len())
         .filter(|&i| {

@@ -2,6 +2,9 @@
 //! parking queue is identical to the exact heap, incremental projected areas equal
 //! from-scratch ones, and no weight is NaN or infinite.
 
+mod common;
+use common::locate;
+
 use portalfind::complex::CellComplex;
 use portalfind::decimate::estimator::projected_area_direct;
 use portalfind::decimate::project::Frame;
@@ -33,12 +36,6 @@ fn settings(h: HeuristicKind, e: Estimator, stop: StopRule) -> Settings {
 
 /// The merged cell (index in the partition) holding point `p`, by the complex's own
 /// point-in-cell test.
-fn locate(cx: &CellComplex, part: &Partition, p: &[f64; 3]) -> Option<usize> {
-    cx.active_cells()
-        .find(|(_, c)| c.poly.contains(p, &cx.tol))
-        .and_then(|(id, _)| part.cell_of(id))
-}
-
 /// Each room's sample points all lie in one final cell, and different rooms in different
 /// cells. Returns a description of the first violation.
 fn rooms_separate(cx: &CellComplex, part: &Partition, rooms: &[Vec<[f64; 3]>]) -> Result<(), String> {
