@@ -43,7 +43,6 @@ id_type!(
 );
 id_type!(
     /// A patch of the cell complex: a face shared by two cells (or a cell and the
-    /// outside), the tag of the cells' polyhedron faces. (`complex` still defines its own
-    /// `PatchId`, equal to this one; it moves here when `complex` re-exports this.)
+    /// outside), the tag of the cells' polyhedron faces (`complex` re-exports it).
     PatchId
 );

@@ -33,5 +33,5 @@ pub mod suite;
 pub mod tolerances;
 pub mod visibility;
 
-pub use ids::{CellId, PolygonId, TetId, VertexId};
+pub use ids::{CellId, PatchId, PolygonId, TetId, VertexId};
 pub use tolerances::Tolerances;

@@ -64,16 +64,8 @@ use serde::Serialize;
 /// The outside of the convex hull, as the second cell of a hull patch.
 pub const HULL: CellId = CellId(u32::MAX);
 
-/// Index of a [`Patch`].
-#[derive(Copy, Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
-pub struct PatchId(pub u32);
-
-impl PatchId {
-    /// As a `usize`.
-    pub fn idx(self) -> usize {
-        self.0 as usize
-    }
-}
+/// Index of a [`Patch`] (the crate's one `PatchId`, from [`crate::ids`]).
+pub use crate::ids::PatchId;
 
 /// A clipped model polygon lying on a patch.
 #[derive(Clone, Debug)]
