@@ -16,22 +16,14 @@ pub enum Transform {
     Scale(f64),
 }
 
+/// Rotation by `deg` (`sign > 0`) or its inverse, through the one rigid-transform module
+/// (`rotate_deg [7, 8, 9]` of the caverns is bit-identical to the generated
+/// `caverns_rotated`; `base::rigid`'s tests pin the formulas).
 fn rot(p: P3, deg: [f64; 3], sign: f64) -> P3 {
-    let (sx, cx) = (sign * deg[0]).to_radians().sin_cos();
-    let (sy, cy) = (sign * deg[1]).to_radians().sin_cos();
-    let (sz, cz) = (sign * deg[2]).to_radians().sin_cos();
-    let [mut x, mut y, mut z] = p;
     if sign > 0.0 {
-        // The same expressions as `bench::rotate_789`, so `rotate_deg [7, 8, 9]` of the
-        // caverns is bit-identical to the generated `caverns_rotated`.
-        (y, z) = (cx * y - sx * z, sx * y + cx * z);
-        (x, z) = (cy * x + sy * z, -sy * x + cy * z);
-        [cz * x - sz * y, sz * x + cz * y, z]
+        crate::base::rigid::rotate_xyz_deg(p, deg)
     } else {
-        // The inverse: about z, then y, then x, by the negated angles.
-        (x, y) = (cz * x - sz * y, sz * x + cz * y);
-        (x, z) = (cy * x + sy * z, -sy * x + cy * z);
-        [x, cx * y - sx * z, sx * y + cx * z]
+        crate::base::rigid::rotate_xyz_deg_inverse(p, deg)
     }
 }
 

@@ -118,41 +118,8 @@ pub fn run_case(case: &SuiteCase, settings: &Settings) -> Result<CaseResult> {
 
 /// [`run_case`] with metric options.
 pub fn run_case_with(case: &SuiteCase, settings: &Settings, opts: &MetricOptions) -> Result<CaseResult> {
-    let t = Instant::now();
-    let model = case.load().map_err(|e| SuiteError::Load {
-        case: case.name.clone(),
-        source: Box::new(e),
-    })?;
-    let seconds_load = t.elapsed().as_secs_f64();
-    let t = Instant::now();
-    let cx = crate::pipeline::complex_of_unchecked(&model).map_err(|source| SuiteError::Cells {
-        case: case.name.clone(),
-        source,
-    })?;
-    let seconds_complex = t.elapsed().as_secs_f64();
-    let valid = cx.check_valid().is_ok();
-    let t = Instant::now();
-    let dec = Decimation::run(&cx, settings);
-    let seconds_decimate = t.elapsed().as_secs_f64();
-    let t = Instant::now();
-    let accuracy = score(&cx, &dec.partition, &case.truth, opts);
-    let seconds_score = t.elapsed().as_secs_f64();
-    Ok(CaseResult {
-        name: case.name.clone(),
-        family: case.family,
-        seed: case.seed,
-        half: case.half,
-        config: config_label(case, settings),
-        triangles: model.triangle_count(),
-        complex_cells: cx.active_cells().count(),
-        leaks: cx.leaks.len(),
-        valid,
-        accuracy,
-        seconds_load,
-        seconds_complex,
-        seconds_decimate,
-        seconds_score,
-    })
+    let mut out = run_settings(std::slice::from_ref(case), &[*settings], opts, &mut |_, _| {})?;
+    Ok(out.pop().expect("one case, one configuration"))
 }
 
 /// The stop of a benchmark configuration.
@@ -237,6 +204,26 @@ pub fn run_cases(
 ) -> Result<Vec<CaseResult>> {
     let mut out = Vec::new();
     for (i, case) in cases.iter().enumerate() {
+        let settings: Vec<Settings> = configs.iter().map(|c| c.settings(case)).collect();
+        out.extend(run_settings(
+            std::slice::from_ref(case),
+            &settings,
+            opts,
+            &mut |_, r| progress(i, r),
+        )?);
+    }
+    Ok(out)
+}
+
+/// Runs each of `settings` on every case, building each case's complex once.
+fn run_settings(
+    cases: &[SuiteCase],
+    settings: &[Settings],
+    opts: &MetricOptions,
+    progress: &mut dyn FnMut(usize, &CaseResult),
+) -> Result<Vec<CaseResult>> {
+    let mut out = Vec::new();
+    for (i, case) in cases.iter().enumerate() {
         let t = Instant::now();
         let model = case.load().map_err(|e| SuiteError::Load {
             case: case.name.clone(),
@@ -250,10 +237,9 @@ pub fn run_cases(
         })?;
         let seconds_complex = t.elapsed().as_secs_f64();
         let valid = cx.check_valid().is_ok();
-        for c in configs {
-            let settings = c.settings(case);
+        for settings in settings {
             let t = Instant::now();
-            let dec = Decimation::run(&cx, &settings);
+            let dec = Decimation::run(&cx, settings);
             let seconds_decimate = t.elapsed().as_secs_f64();
             let t = Instant::now();
             let accuracy = score(&cx, &dec.partition, &case.truth, opts);
@@ -262,7 +248,7 @@ pub fn run_cases(
                 family: case.family,
                 seed: case.seed,
                 half: case.half,
-                config: config_label(case, &settings),
+                config: config_label(case, settings),
                 triangles: model.triangle_count(),
                 complex_cells: cx.active_cells().count(),
                 leaks: cx.leaks.len(),
