@@ -29,19 +29,7 @@ type Link = (CellId, CellId, ConvexPolygon);
 
 /// Area-weighted centroid of convex pieces (the first piece's centroid if all are empty).
 fn area_centroid(pieces: &[ConvexPolygon]) -> [f64; 3] {
-    let (mut c, mut w) = ([0.0; 3], 0.0);
-    for p in pieces {
-        let (a, q) = (p.area(), p.centroid());
-        for k in 0..3 {
-            c[k] += a * q[k];
-        }
-        w += a;
-    }
-    if w > 0.0 {
-        c.map(|x| x / w)
-    } else {
-        pieces.first().map_or([f64::NAN; 3], |p| p.centroid())
-    }
+    crate::base::vec::weighted_mean(pieces.iter().map(|p| (p.area(), p.centroid())))
 }
 
 impl CellComplex {

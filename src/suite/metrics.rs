@@ -32,6 +32,7 @@ use super::SuiteTruth;
 use super::util::{Rng, dist, mean};
 use crate::complex::CellComplex;
 use crate::decimate::{Decimation, Partition, Step};
+use crate::experiment::eval::locate_in_complex;
 use crate::geom::ConvexPolygon;
 use crate::ids::CellId;
 use crate::predicates::P3;
@@ -173,28 +174,6 @@ pub(crate) fn sample_polyhedron(faces: &[ConvexPolygon], n: usize, rng: &mut Rng
                 i += 1;
             }
             point_in_tet(&tets[i], rng)
-        })
-        .collect()
-}
-
-/// The lowest-id active cell containing each point.
-// TODO(merge): dedupe with experiment::eval::locate_in_complex (private there).
-fn locate_in_complex(cx: &CellComplex, pts: &[P3]) -> Vec<Option<CellId>> {
-    let slack = cx.tol.plane_abs();
-    let boxes: Vec<(CellId, P3, P3)> = cx
-        .active_cells()
-        .map(|(id, c)| {
-            let (lo, hi) = c.poly.aabb();
-            (id, lo, hi)
-        })
-        .collect();
-    pts.iter()
-        .map(|p| {
-            boxes
-                .iter()
-                .filter(|(_, lo, hi)| (0..3).all(|k| p[k] >= lo[k] - slack && p[k] <= hi[k] + slack))
-                .find(|(id, _, _)| cx.cells[id.idx()].poly.contains(p, &cx.tol))
-                .map(|(id, _, _)| *id)
         })
         .collect()
 }

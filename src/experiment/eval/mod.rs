@@ -36,6 +36,7 @@ mod types;
 
 pub use geometry::diagonal;
 pub use portals::{map_back, match_portals, portal_summaries, portals_match, rotation_check, separating_summaries};
+pub use separation::locate_in_complex;
 pub use types::*;
 
 use super::Definition;
@@ -46,7 +47,7 @@ use crate::model::Model;
 use crate::output::Locator;
 use crate::pipeline::Run;
 use doorways::match_doorways;
-use separation::{full_run_analysis, locate_in_complex, separation_state};
+use separation::{full_run_analysis, separation_state};
 use std::time::Instant;
 
 /// Value of [`Evaluation::schema`].
