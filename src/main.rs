@@ -244,6 +244,35 @@ enum BenchCmd {
         #[arg(long, default_value = "results/accuracy")]
         out: PathBuf,
     },
+    /// A stable, deterministic, time-bounded fuzzer (cargo-fuzz needs nightly): mutates the
+    /// corpus of TARGET (obj, mesh: the readers; pipeline: small soups through the cell
+    /// complex, its validation and the decimation), catches panics, buckets failures by
+    /// message (known classes counted apart), shrinks the first find of each bucket and
+    /// writes it to FINDS/TARGET/ (known classes to FINDS/TARGET/known/). Writes the figures
+    /// to OUT/TARGET.json.
+    Fuzz {
+        /// obj, mesh or pipeline.
+        #[arg(long)]
+        target: portalfind::suite::fuzz::Target,
+        /// Wall time to run.
+        #[arg(long, default_value_t = 60.0)]
+        seconds: f64,
+        /// Seed (case i's input is a function of the seed and i).
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Corpus directory (one subdirectory per target).
+        #[arg(long, default_value = "tests/fuzz-corpus")]
+        corpus: PathBuf,
+        /// Where shrunk finds are written (one subdirectory per target).
+        #[arg(long, default_value = "tests/data/fuzz")]
+        finds: PathBuf,
+        /// Where the report is written.
+        #[arg(long, default_value = "results/fuzz")]
+        out: PathBuf,
+        /// Checks spent shrinking each bucket's first find.
+        #[arg(long, default_value_t = 400)]
+        shrink_budget: usize,
+    },
     /// Run one case in this process and print it as JSON (what `bench delaunay` runs in a
     /// child process per case). With the environment variable PF_BENCH_STATS=1 it also
     /// prints the per-phase times and walk/cavity statistics to stderr.
@@ -293,6 +322,62 @@ fn bench_accuracy(
         "wrote {}/{{cases.csv,summary.csv,accuracy.json,table.md}}",
         out.display()
     );
+    Ok(())
+}
+
+fn bench_fuzz(
+    target: portalfind::suite::fuzz::Target,
+    seconds: f64,
+    seed: u64,
+    corpus_dir: &std::path::Path,
+    finds: &std::path::Path,
+    out: &std::path::Path,
+    shrink_budget: usize,
+) -> Result<()> {
+    use portalfind::suite::fuzz;
+    let corpus = fuzz::load_corpus(corpus_dir, target)
+        .with_context(|| format!("cannot read the corpus {}/{target}", corpus_dir.display()))?;
+    eprintln!("fuzz {target}: {} corpus files, {seconds} s, seed {seed}", corpus.len());
+    let limits = fuzz::Limits::default();
+    let r = fuzz::run(target, &corpus, seed, seconds, &limits, shrink_budget, &mut |n, f| {
+        eprint!("\r{n} cases, {f} failures");
+    });
+    eprintln!();
+    let mut written = Vec::new();
+    for b in &r.buckets {
+        let dir = if b.known.is_some() {
+            finds.join(target.name()).join("known")
+        } else {
+            finds.join(target.name())
+        };
+        let path = dir.join(fuzz::find_name(target, &b.bucket, &b.shrunk));
+        if !path.exists() {
+            std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+            portalfind::model::write::write_atomic(&path, &b.shrunk)
+                .with_context(|| format!("cannot write {}", path.display()))?;
+            written.push(path);
+        }
+    }
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let json = out.join(format!("{target}.json"));
+    portalfind::model::write::write_atomic(&json, serde_json::to_string_pretty(&r)?.as_bytes())
+        .with_context(|| format!("cannot write {}", json.display()))?;
+    println!(
+        "{target}: {:.0} s, {} cases ({:.0}/s): {} passed, {} refused (typed error), {} skipped, {} new failures, {} known",
+        r.seconds, r.cases, r.cases_per_second, r.passed, r.refused, r.skipped, r.new_failures, r.known_failures
+    );
+    for b in &r.buckets {
+        println!(
+            "  {:>6}  {}{}",
+            b.count,
+            b.known.map(|k| format!("[known: {k}] ")).unwrap_or_default(),
+            b.bucket
+        );
+    }
+    for p in &written {
+        println!("wrote {}", p.display());
+    }
+    println!("wrote {}", json.display());
     Ok(())
 }
 
@@ -383,6 +468,15 @@ fn run(cli: Cli) -> Result<()> {
                 families,
                 out,
             } => bench_accuracy(&configs, &half, &families, &out),
+            BenchCmd::Fuzz {
+                target,
+                seconds,
+                seed,
+                corpus,
+                finds,
+                out,
+                shrink_budget,
+            } => bench_fuzz(target, seconds, seed, &corpus, &finds, &out, shrink_budget),
         },
         Cmd::Run {
             model,
