@@ -60,6 +60,13 @@ enum Cmd {
         /// always better: the choice is greedy).
         #[arg(long, default_value_t = portalfind::bsp::DEFAULT_MAX_CANDIDATES)]
         bsp_candidates: usize,
+        /// Seal openings narrower than SIZE where the model leaks (Umbra's "smallest
+        /// hole"): in model units (0.25) or as a percentage of the bounding-box diagonal
+        /// (1%). The exterior flood fill treats them as closed; each sealed hole is
+        /// printed (where, how wide) and, for run, listed in result.json. Leaks through
+        /// wider openings are still reported. See the README's "Sealing leaky levels".
+        #[arg(long, value_name = "SIZE")]
+        seal_holes: Option<pipeline::SealSize>,
     },
     /// Generate test models (OBJ or .mesh by the output's extension).
     Gen {
@@ -111,6 +118,13 @@ enum Cmd {
         /// always better: the choice is greedy).
         #[arg(long, default_value_t = portalfind::bsp::DEFAULT_MAX_CANDIDATES)]
         bsp_candidates: usize,
+        /// Seal openings narrower than SIZE where the model leaks (Umbra's "smallest
+        /// hole"): in model units (0.25) or as a percentage of the bounding-box diagonal
+        /// (1%). The exterior flood fill treats them as closed; each sealed hole is
+        /// printed (where, how wide) and, for run, listed in result.json. Leaks through
+        /// wider openings are still reported. See the README's "Sealing leaky levels".
+        #[arg(long, value_name = "SIZE")]
+        seal_holes: Option<pipeline::SealSize>,
         /// Also draw intermediate states: for each count N (comma-separated, e.g.
         /// 2000,500,200), the cells when N were left, rebuilt by replaying the recorded
         /// collapses, as OUT/cells_N.svg. Each N must lie between the active cell count
@@ -430,11 +444,12 @@ fn run(cli: Cli) -> Result<()> {
             pointfile,
             subdivision,
             bsp_candidates,
+            seal_holes,
         } => complex(
             &model,
             !no_validate,
             pointfile.as_deref(),
-            cell_settings(subdivision, bsp_candidates),
+            cell_settings(subdivision, bsp_candidates, seal_holes),
         ),
         Cmd::Gen {
             what: GenCmd::Rooms { nx, ny, tess, out },
@@ -486,6 +501,7 @@ fn run(cli: Cli) -> Result<()> {
             out,
             subdivision,
             bsp_candidates,
+            seal_holes,
             snapshots,
             export,
         } => with_output_dir(&out, || {
@@ -495,7 +511,7 @@ fn run(cli: Cli) -> Result<()> {
                 estimator,
                 stop.unwrap_or_else(|| heuristic.default_stop()),
                 &out,
-                cell_settings(subdivision, bsp_candidates),
+                cell_settings(subdivision, bsp_candidates, seal_holes),
                 &snapshots,
                 &export,
             )
@@ -567,9 +583,14 @@ impl Drop for LazyBar {
 }
 
 /// How `complex` and `run` make cells: the pipeline's settings with the CLI's choices.
-fn cell_settings(subdivision: Subdivision, bsp_candidates: usize) -> CellSettings {
+fn cell_settings(
+    subdivision: Subdivision,
+    bsp_candidates: usize,
+    seal_holes: Option<pipeline::SealSize>,
+) -> CellSettings {
     CellSettings {
         subdivision,
+        seal_holes,
         bsp: portalfind::bsp::BspSettings {
             max_candidates: bsp_candidates,
         },
@@ -652,10 +673,14 @@ fn complex(
 ) -> Result<()> {
     let m = load(path)?;
     let mut bar = LazyBar::new();
-    let pipeline::Cells { cx, stats, stages: pre } =
-        pipeline::build_cells_unchecked(&m, path, &how, &mut |p: Progress| {
-            bar.update(p.stage.name(), p.done, p.total)
-        })?;
+    let pipeline::Cells {
+        cx,
+        stats,
+        stages: pre,
+        sealed,
+    } = pipeline::build_cells_unchecked(&m, path, &how, &mut |p: Progress| {
+        bar.update(p.stage.name(), p.done, p.total)
+    })?;
     drop(bar);
     let stats = stats.to_json();
     let s = &cx.stats;
@@ -667,7 +692,7 @@ fn complex(
         println!("{name:<44}{secs:>10.3}");
     }
     println!();
-    let rows: [(&str, String); 15] = [
+    let rows: [(&str, String); 16] = [
         ("model polygons", s.polygons.to_string()),
         ("tetrahedra", s.tetrahedra.to_string()),
         (
@@ -707,6 +732,7 @@ fn complex(
             format!("{} (total area {:.3e})", s.slivers_discarded, s.sliver_area),
         ),
         ("leaks", s.leaks.to_string()),
+        ("openings sealed", s.openings_sealed.to_string()),
         ("hull volume", format!("{:.6e}", cx.hull_volume)),
     ];
     for (k, v) in rows {
@@ -736,6 +762,7 @@ fn complex(
             l.hull_point[2]
         );
     }
+    print_sealed(&sealed);
     if let Some(pf) = pointfile {
         write_or_clear_pointfile(pf, cx.leaks.first().map(|l| cx.leak_pointfile(l)))?;
     }
@@ -984,6 +1011,7 @@ fn run_decimation(
         dec,
         mut stages,
         doc,
+        sealed,
         ..
     } = run;
     let t3 = Instant::now();
@@ -1070,8 +1098,31 @@ fn run_decimation(
     for d in &written.swept {
         println!("removed an interrupted run's staging directory {}", d.display());
     }
+    print_sealed(&sealed);
     report_leaks_and_orientation(&cx);
     Ok(())
+}
+
+/// One line per hole sealed by `--seal-holes`.
+fn print_sealed(sealed: &[portalfind::complex::SealedOpening]) {
+    for (i, o) in sealed.iter().enumerate() {
+        println!(
+            "sealed opening {i}: width {:.4} at ({:.3}, {:.3}, {:.3}); {} portal{}, area {:.4}, cell {} kept, {} removed",
+            o.width,
+            o.point[0],
+            o.point[1],
+            o.point[2],
+            o.portals,
+            if o.portals == 1 { "" } else { "s" },
+            o.area,
+            o.inside,
+            if o.outside == portalfind::complex::HULL {
+                "the outside of the hull".to_string()
+            } else {
+                format!("cell {}", o.outside)
+            }
+        );
+    }
 }
 
 /// Warnings a user must not miss: leaks, and a model whose every region was removed

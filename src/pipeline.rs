@@ -35,7 +35,7 @@
 //! ```
 
 use crate::bsp::{BspSettings, BspStats};
-use crate::complex::CellComplex;
+use crate::complex::{CellComplex, SealedOpening};
 use crate::decimate::Decimation;
 use crate::delaunay::{DelaunayError, Tetrahedralization};
 use crate::model::{Model, ModelError};
@@ -109,6 +109,9 @@ pub struct CellSettings {
     pub seed: u64,
     /// BSP plane choice.
     pub bsp: BspSettings,
+    /// Seal openings of leaking regions narrower than this ([`CellComplex::seal_holes`]);
+    /// `None`: no sealing (the default).
+    pub seal_holes: Option<SealSize>,
 }
 
 impl Default for CellSettings {
@@ -117,7 +120,68 @@ impl Default for CellSettings {
             subdivision: Subdivision::Delaunay,
             seed: DEFAULT_SEED,
             bsp: BspSettings::default(),
+            seal_holes: None,
         }
+    }
+}
+
+/// The smallest opening that is not sealed: in model units (`0.25`), or as a percentage
+/// of the model's bounding-box diagonal (`1%`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SealSize {
+    /// Model units.
+    Units(f64),
+    /// Percent of the bounding-box diagonal.
+    PercentOfDiagonal(f64),
+}
+
+impl SealSize {
+    /// In model units, for `model`.
+    pub fn resolve(self, model: &Model) -> f64 {
+        match self {
+            SealSize::Units(u) => u,
+            SealSize::PercentOfDiagonal(p) => p / 100.0 * model.tolerances.scale,
+        }
+    }
+}
+
+impl fmt::Display for SealSize {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            SealSize::Units(u) => write!(f, "{u}"),
+            SealSize::PercentOfDiagonal(p) => write!(f, "{p}%"),
+        }
+    }
+}
+
+/// A sealing size that is not a positive finite number (optionally followed by `%`).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "bad hole size {text:?}: use a positive size in model units (0.25) or a percentage of the bounding-box diagonal (1%)"
+)]
+pub struct BadSealSize {
+    /// The text given.
+    pub text: String,
+}
+
+impl FromStr for SealSize {
+    type Err = BadSealSize;
+    fn from_str(s: &str) -> Result<Self, BadSealSize> {
+        let bad = || BadSealSize { text: s.to_string() };
+        let t = s.trim();
+        let (num, pct) = match t.strip_suffix('%') {
+            Some(n) => (n.trim(), true),
+            None => (t, false),
+        };
+        let x: f64 = num.parse().map_err(|_| bad())?;
+        if !x.is_finite() || x <= 0.0 {
+            return Err(bad());
+        }
+        Ok(if pct {
+            SealSize::PercentOfDiagonal(x)
+        } else {
+            SealSize::Units(x)
+        })
     }
 }
 
@@ -249,6 +313,8 @@ pub struct Cells {
     pub stats: SubdivisionStats,
     /// Timed stages that precede the complex's own timings (`cx.stats.timings`).
     pub stages: Vec<(String, f64)>,
+    /// Openings sealed ([`CellSettings::seal_holes`]; empty without it).
+    pub sealed: Vec<SealedOpening>,
 }
 
 /// Loads and cleans a model file; returns it with the seconds it took.
@@ -297,6 +363,19 @@ pub fn build_cells_unchecked(
     settings: &CellSettings,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<Cells, PipelineError> {
+    let mut cells = build_cells_unsealed(model, label, settings, progress)?;
+    if let Some(size) = settings.seal_holes {
+        cells.sealed = cells.cx.seal_holes(model, size.resolve(model));
+    }
+    Ok(cells)
+}
+
+fn build_cells_unsealed(
+    model: &Model,
+    label: &Path,
+    settings: &CellSettings,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Cells, PipelineError> {
     match settings.subdivision {
         Subdivision::Delaunay => {
             let t0 = Instant::now();
@@ -328,6 +407,7 @@ pub fn build_cells_unchecked(
                     tetrahedralization_seconds: tt,
                 }),
                 stages: vec![("delaunay tetrahedralization".into(), tt)],
+                sealed: Vec::new(),
             })
         }
         Subdivision::Bsp => {
@@ -336,6 +416,7 @@ pub fn build_cells_unchecked(
                 cx,
                 stats: SubdivisionStats::Bsp(stats),
                 stages: Vec::new(),
+                sealed: Vec::new(),
             })
         }
     }
@@ -353,6 +434,8 @@ pub struct Run {
     pub stages: Vec<(String, f64)>,
     /// The `result.json` document.
     pub doc: ResultDoc,
+    /// Openings sealed ([`CellSettings::seal_holes`]; also in `doc.sealed_openings`).
+    pub sealed: Vec<SealedOpening>,
 }
 
 /// Cells, decimation and result document for a model already loaded. `model_path` is
@@ -380,12 +463,14 @@ pub fn run_model(
     let mut doc = output::result_doc(model, model_path, &cells.cx, &dec, &stages)?;
     doc.settings.subdivision = settings.cells.subdivision.to_string();
     doc.subdivision_stats = cells.stats.to_json();
+    doc.sealed_openings = cells.sealed.clone();
     Ok(Run {
         cx: cells.cx,
         subdivision_stats: cells.stats,
         dec,
         stages,
         doc,
+        sealed: cells.sealed,
     })
 }
 

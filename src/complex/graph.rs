@@ -249,7 +249,12 @@ impl CellComplex {
 
     /// Stage 6: remove regions that face no occluder; report leaks.
     pub(crate) fn remove_exterior(&mut self) {
-        let adj = self.adjacency();
+        self.remove_exterior_with(None);
+    }
+
+    /// Connected regions of the portal graph over alive cells: (region of each cell,
+    /// members of each region).
+    pub(super) fn regions(&self, adj: &[Vec<(CellId, usize)>]) -> (Vec<u32>, Vec<Vec<CellId>>) {
         let n = self.cells.len();
         let mut region = vec![u32::MAX; n];
         let mut regions: Vec<Vec<CellId>> = Vec::new();
@@ -273,22 +278,42 @@ impl CellComplex {
             }
             regions.push(members);
         }
-        // Open hull patches per cell (hull faces not fully covered by occluders).
-        let mut hull_open: HashMap<CellId, [f64; 3]> = HashMap::new();
+        (region, regions)
+    }
+
+    /// Open hull openings per cell: the uncovered pieces of its hull patches (empty for
+    /// a cell that reaches the hull through flat cells) and a point there.
+    pub(super) fn hull_openings(&self) -> HashMap<CellId, (Vec<ConvexPolygon>, [f64; 3])> {
+        let mut hull_open: HashMap<CellId, (Vec<ConvexPolygon>, [f64; 3])> = HashMap::new();
         for &(c, q) in &self.hull_through {
-            hull_open.entry(c).or_insert(q);
+            hull_open.entry(c).or_insert((Vec::new(), q));
         }
         for (pi, p) in self.patches.iter().enumerate() {
             if p.alive && p.cells[1] == HULL && self.cells[p.cells[0].idx()].alive && !self.cells[p.cells[0].idx()].flat
             {
                 let (pieces, _, _) = self.open_pieces(PatchId(pi as u32));
                 if let Some(q) = pieces.first() {
-                    hull_open.entry(p.cells[0]).or_insert_with(|| q.centroid());
+                    let q = q.centroid();
+                    hull_open.entry(p.cells[0]).or_insert((Vec::new(), q)).0.extend(pieces);
                 }
             }
         }
+        hull_open
+    }
+
+    /// Stage 6, optionally sealing narrow openings of leaking regions (see
+    /// [`CellComplex::seal_holes`]); returns the sealed openings.
+    pub(super) fn remove_exterior_with(
+        &mut self,
+        mut sealer: Option<&mut super::seal::Sealer>,
+    ) -> Vec<super::seal::SealedOpening> {
+        let adj = self.adjacency();
+        let (_, regions) = self.regions(&adj);
+        let hull_open_pieces = self.hull_openings();
+        let hull_open: HashMap<CellId, [f64; 3]> = hull_open_pieces.iter().map(|(c, (_, q))| (*c, *q)).collect();
         let mut removed = 0;
         let mut leaks = Vec::new();
+        let mut sealed = Vec::new();
         for members in &regions {
             let facing = members.iter().any(|&c| self.faces_occluder(c));
             if !facing {
@@ -299,10 +324,24 @@ impl CellComplex {
                 removed += members.len();
                 continue;
             }
-            self.stats.interior_regions += 1;
-            if members.iter().any(|c| hull_open.contains_key(c)) {
-                leaks.push(self.trace_leak(members, &adj, &hull_open));
+            if !members.iter().any(|c| hull_open.contains_key(c)) {
+                self.stats.interior_regions += 1;
+                continue;
             }
+            if let Some(s) = sealer.as_deref_mut()
+                && let Some(split) = s.split_region(self, members, &adj, &hull_open_pieces)
+            {
+                for &c in &split.exterior {
+                    self.cells[c.idx()].exterior = true;
+                }
+                removed += split.exterior.len();
+                self.stats.exterior_regions += split.exterior_regions;
+                self.stats.interior_regions += split.interior_regions;
+                sealed.extend(split.sealed);
+                continue;
+            }
+            self.stats.interior_regions += 1;
+            leaks.push(self.trace_leak(members, &adj, &hull_open));
         }
         self.stats.exterior_cells_removed = removed;
         self.stats.active_cells = self.cells.iter().filter(|c| c.active()).count();
@@ -312,6 +351,7 @@ impl CellComplex {
         self.stats.portal_polygons = self.portals.iter().map(|p| p.pieces.len()).sum();
         self.stats.leaks = leaks.len();
         self.leaks = leaks;
+        sealed
     }
 
     /// Multi-source BFS from the cells with open hull faces; the occluder-facing cell

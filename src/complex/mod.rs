@@ -39,6 +39,9 @@
 //!    sliver width do not count. A region that faces occluders *and* reaches the hull
 //!    through an uncovered hull patch is a leak: reported, with the path
 //!    ([`CellComplex::leak_pointfile`]), and kept.
+//! 7. **Sealing holes** (optional, [`CellComplex::seal_holes`]): stage 6 again, with the
+//!    openings of leaking regions narrower than a given size closed; what was sealed is
+//!    reported ([`SealedOpening`]).
 //!
 //! Invariants (checked by [`CellComplex::validate`]): alive cells are convex with positive
 //! volume and their face tags name live patches that list them; each patch's two cells
@@ -50,10 +53,12 @@
 
 mod build;
 mod graph;
+mod seal;
 mod validate;
 
 pub(crate) use build::{polygon_supports, project};
 
+pub use seal::SealedOpening;
 pub use validate::{ComplexError, ComplexValidation};
 
 use crate::geom::{ConvexPolygon, ConvexPolyhedron, Plane};
@@ -188,6 +193,8 @@ pub struct ComplexStats {
     pub interior_regions: usize,
     /// Leaks found.
     pub leaks: usize,
+    /// Openings sealed by [`CellComplex::seal_holes`] (holes, each of one or more portals).
+    pub openings_sealed: usize,
     /// Stage timings in seconds, in order.
     pub timings: Vec<(String, f64)>,
 }

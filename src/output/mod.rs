@@ -75,6 +75,9 @@ pub struct ResultDoc {
     pub cells: Vec<CellDoc>,
     /// Final portals, sorted by cell pair.
     pub portals: Vec<PortalDoc>,
+    /// Openings sealed by `--seal-holes` (absent when none were).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub sealed_openings: Vec<crate::complex::SealedOpening>,
 }
 
 /// The input model.
@@ -258,6 +261,7 @@ pub fn result_doc(
         stop_reason: dec.stop,
         cells,
         portals,
+        sealed_openings: Vec::new(),
     })
 }
 

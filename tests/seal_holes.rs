@@ -1,0 +1,143 @@
+//! Sealing leaky levels (issue 16): `--seal-holes SIZE` closes openings narrower than SIZE
+//! where a region leaks, reports them, and keeps the leak report for wider ones.
+
+use portalfind::complex::HULL;
+use portalfind::generate::scenes::Soup;
+use portalfind::model::{Model, from_soup};
+use portalfind::pipeline::{self, CellSettings, Cells, SealSize, Subdivision};
+use std::path::Path;
+
+/// Two box rooms (`[0,4]×[0,4]×[0,3]` and `[6,10]×…`) joined by a corridor 1 wide and 2
+/// high, walls one-sided facing in, so the space between the rooms (inside the convex
+/// hull) is outside. Room A's wall at x = 4 has a square hole of side `hole` centred at
+/// y = 3.25, z = 1.25, opening onto that outside space.
+fn rooms_with_hole(hole: f64) -> Model {
+    let mut s = Soup::default();
+    let (y0, y1, z0, z1) = (
+        3.25 - hole / 2.0,
+        3.25 + hole / 2.0,
+        1.25 - hole / 2.0,
+        1.25 + hole / 2.0,
+    );
+    for (x0, x1) in [(0.0, 4.0), (6.0, 10.0)] {
+        s.rect(2, 0.0, (x0, x1), (0.0, 4.0), true); // floor
+        s.rect(2, 3.0, (x0, x1), (0.0, 4.0), false); // ceiling
+        s.rect(1, 0.0, (0.0, 3.0), (x0, x1), true); // y = 0, facing +y
+        s.rect(1, 4.0, (0.0, 3.0), (x0, x1), false);
+    }
+    s.rect(0, 0.0, (0.0, 4.0), (0.0, 3.0), true); // room A's far wall
+    s.rect(0, 10.0, (0.0, 4.0), (0.0, 3.0), false); // room B's far wall
+    // Room A's wall at x = 4 (facing -x), around the corridor door and the hole.
+    for (u, v) in [
+        ((0.0, 1.5), (0.0, 3.0)),
+        ((1.5, 2.5), (2.0, 3.0)),
+        ((2.5, y0), (0.0, 3.0)),
+        ((y0, y1), (0.0, z0)),
+        ((y0, y1), (z1, 3.0)),
+        ((y1, 4.0), (0.0, 3.0)),
+    ] {
+        s.rect(0, 4.0, u, v, false);
+    }
+    // Room B's wall at x = 6 (facing +x), around the door.
+    for (u, v) in [
+        ((0.0, 1.5), (0.0, 3.0)),
+        ((1.5, 2.5), (2.0, 3.0)),
+        ((2.5, 4.0), (0.0, 3.0)),
+    ] {
+        s.rect(0, 6.0, u, v, true);
+    }
+    // The corridor.
+    s.rect(2, 0.0, (4.0, 6.0), (1.5, 2.5), true);
+    s.rect(2, 2.0, (4.0, 6.0), (1.5, 2.5), false);
+    s.rect(1, 1.5, (0.0, 2.0), (4.0, 6.0), true);
+    s.rect(1, 2.5, (0.0, 2.0), (4.0, 6.0), false);
+    from_soup("rooms_with_hole", s.vertices, s.polygons).expect("model")
+}
+
+fn cells(m: &Model, sub: Subdivision, seal: Option<SealSize>) -> Cells {
+    let settings = CellSettings {
+        seal_holes: seal,
+        ..CellSettings::of(sub)
+    };
+    let c = pipeline::build_cells(m, Path::new("rooms_with_hole"), &settings, &mut |_| {}).expect("cells");
+    c.cx.validate(m).expect("the complex validates");
+    c
+}
+
+#[test]
+fn a_small_hole_leaks_and_sealing_closes_it_and_says_where() {
+    let m = rooms_with_hole(0.1);
+    for sub in Subdivision::ALL {
+        let open = cells(&m, sub, None);
+        assert_eq!(open.cx.leaks.len(), 1, "{sub}: the hole leaks");
+        assert!(open.sealed.is_empty());
+
+        let c = cells(&m, sub, Some(SealSize::Units(0.5)));
+        assert!(c.cx.leaks.is_empty(), "{sub}: sealed, no leak left");
+        assert_eq!(
+            c.cx.stats.interior_regions, 1,
+            "{sub}: both rooms and the corridor stay one region"
+        );
+        assert_eq!(c.sealed.len(), 1, "{sub}: one hole: {:?}", c.sealed);
+        assert_eq!(c.cx.stats.openings_sealed, 1);
+        let o = &c.sealed[0];
+        eprintln!("{sub}: {o:?}");
+        let d = [o.point[0] - 4.0, o.point[1] - 3.25, o.point[2] - 1.25];
+        assert!(d.iter().all(|x| x.abs() <= 0.06), "{sub}: sealed at {:?}", o.point);
+        assert!(o.width > 0.0 && o.width <= 0.1 + 1e-9, "{sub}: width {}", o.width);
+        assert!(o.outside != HULL && c.cx.cells[o.outside.idx()].exterior);
+        assert!(c.cx.cells[o.inside.idx()].active());
+        // The space between the rooms is removed; the rooms are kept.
+        assert!(c.cx.stats.exterior_cells_removed > open.cx.stats.exterior_cells_removed);
+        assert!(c.cx.stats.active_cells < open.cx.stats.active_cells);
+    }
+}
+
+#[test]
+fn a_hole_wider_than_the_size_still_leaks() {
+    let m = rooms_with_hole(0.8);
+    let c = cells(&m, Subdivision::Delaunay, Some(SealSize::Units(0.5)));
+    assert_eq!(c.cx.leaks.len(), 1, "the leak is reported as without sealing");
+    assert!(c.sealed.is_empty());
+    let c = cells(&m, Subdivision::Delaunay, Some(SealSize::Units(1.0)));
+    assert!(c.cx.leaks.is_empty(), "sealed at size 1");
+    assert_eq!(c.sealed.len(), 1);
+}
+
+#[test]
+fn a_hole_in_the_hull_is_sealed_as_a_hull_opening() {
+    // One box room (its walls are the convex hull) with a 0.1 hole in the wall x = 4.
+    let mut s = Soup::default();
+    s.rect(2, 0.0, (0.0, 4.0), (0.0, 4.0), true);
+    s.rect(2, 3.0, (0.0, 4.0), (0.0, 4.0), false);
+    s.rect(1, 0.0, (0.0, 3.0), (0.0, 4.0), true);
+    s.rect(1, 4.0, (0.0, 3.0), (0.0, 4.0), false);
+    s.rect(0, 0.0, (0.0, 4.0), (0.0, 3.0), true);
+    for (u, v) in [
+        ((0.0, 2.0), (0.0, 3.0)),
+        ((2.0, 2.1), (0.0, 1.0)),
+        ((2.0, 2.1), (1.1, 3.0)),
+        ((2.1, 4.0), (0.0, 3.0)),
+    ] {
+        s.rect(0, 4.0, u, v, false);
+    }
+    let m = from_soup("box_with_hole", s.vertices, s.polygons).expect("model");
+    let open = cells(&m, Subdivision::Delaunay, None);
+    assert_eq!(open.cx.leaks.len(), 1);
+    let c = cells(&m, Subdivision::Delaunay, Some(SealSize::PercentOfDiagonal(5.0)));
+    assert!(c.cx.leaks.is_empty());
+    assert_eq!(c.sealed.len(), 1, "{:?}", c.sealed);
+    assert_eq!(c.sealed[0].outside, HULL);
+    assert_eq!(c.cx.stats.active_cells, open.cx.stats.active_cells, "nothing removed");
+    let p = c.sealed[0].point;
+    assert!((p[0] - 4.0).abs() < 1e-9 && (p[1] - 2.05).abs() <= 0.06 && (p[2] - 1.05).abs() <= 0.06);
+}
+
+#[test]
+fn seal_sizes_parse() {
+    assert_eq!("0.25".parse::<SealSize>(), Ok(SealSize::Units(0.25)));
+    assert_eq!("1%".parse::<SealSize>(), Ok(SealSize::PercentOfDiagonal(1.0)));
+    for bad in ["0", "-1", "x", "nan", "inf%", ""] {
+        assert!(bad.parse::<SealSize>().is_err(), "{bad}");
+    }
+}
