@@ -262,7 +262,7 @@ enum BenchCmd {
     /// corpus of TARGET (obj, mesh: the readers; pipeline: small soups through the cell
     /// complex, its validation and the decimation), catches panics, buckets failures by
     /// message (known classes counted apart), shrinks the first find of each bucket and
-    /// writes it to FINDS/TARGET/ (known classes to FINDS/TARGET/known/). Writes the figures
+    /// writes it to FINDS/TARGET/open/ (known classes to FINDS/TARGET/known/). Writes the figures
     /// to OUT/TARGET.json.
     Fuzz {
         /// obj, mesh or pipeline.
@@ -286,6 +286,20 @@ enum BenchCmd {
         /// Checks spent shrinking each bucket's first find.
         #[arg(long, default_value_t = 400)]
         shrink_budget: usize,
+    },
+    /// The stress table (issue 16): suite models (thesis, buildings, caverns) under
+    /// rotations (7°/8°/9° and random), offsets (1e3-1e9), scales (1e-4, 1e6), vertex
+    /// noise (1e-7-1e-2 of the diagonal), shuffles, centroid splits, duplicated and
+    /// flipped-duplicate faces. Per variant: validation, leaks, regions, active cells,
+    /// final portals (default decimation), rooms isolated and whether they are the unmoved
+    /// model's. Writes stress.csv, stress.json and table.md into --out.
+    Stress {
+        /// 3 models × 9 variants instead of 10 × 21.
+        #[arg(long)]
+        quick: bool,
+        /// Output directory.
+        #[arg(long, default_value = "results/stress")]
+        out: PathBuf,
     },
     /// Run one case in this process and print it as JSON (what `bench delaunay` runs in a
     /// child process per case). With the environment variable PF_BENCH_STATS=1 it also
@@ -359,11 +373,11 @@ fn bench_fuzz(
     eprintln!();
     let mut written = Vec::new();
     for b in &r.buckets {
-        let dir = if b.known.is_some() {
-            finds.join(target.name()).join("known")
-        } else {
-            finds.join(target.name())
-        };
+        // Finds that fail today: `open/` (new) or `known/`; a fixed one is moved up to
+        // FINDS/TARGET/, where tests/fuzz_regressions.rs checks it on every run.
+        let dir = finds
+            .join(target.name())
+            .join(if b.known.is_some() { "known" } else { "open" });
         let path = dir.join(fuzz::find_name(target, &b.bucket, &b.shrunk));
         if !path.exists() {
             std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
@@ -492,6 +506,14 @@ fn run(cli: Cli) -> Result<()> {
                 out,
                 shrink_budget,
             } => bench_fuzz(target, seconds, seed, &corpus, &finds, &out, shrink_budget),
+            BenchCmd::Stress { quick, out } => {
+                let rows = portalfind::suite::stress::run(quick, &mut |what| eprintln!("{what}"));
+                portalfind::suite::stress::write_all(&rows, &out)
+                    .with_context(|| format!("cannot write into {}", out.display()))?;
+                println!("{}", portalfind::suite::stress::table(&rows));
+                println!("wrote {}/{{stress.csv,stress.json,table.md}}", out.display());
+                Ok(())
+            }
         },
         Cmd::Run {
             model,

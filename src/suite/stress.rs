@@ -1,0 +1,426 @@
+//! The stress table (issue 16, "A stress suite"; `portalfind bench stress`): models of the
+//! suite (the thesis models and generated buildings and caverns, each with true rooms)
+//! under rigid motions, offsets, scales, vertex noise, shuffles, centroid splits and
+//! duplicated faces. Per variant: validation, leaks, regions, active cells, final portals
+//! (default decimation) and rooms isolated, compared with the unmoved model.
+//!
+//! The variants began as the `stress_table` test of `tests/fuzz_finds.rs` (noise,
+//! rotation, offset, shuffle); this module owns them now, with the rest of the issue's list.
+//! Rigid motions and scalings map the truth's sample points too; the other variants keep
+//! them (noise moves vertices by far less than a sample's distance to the walls).
+
+use super::{Family, SuiteCase, case};
+use crate::base::rng::SplitMix64;
+use crate::base::vec::P3;
+use crate::decimate::Decimation;
+use crate::experiment::eval::locate_in_complex;
+use crate::model::from_soup;
+use serde::Serialize;
+use std::time::Instant;
+
+/// A transformation of a soup.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub enum Variant {
+    /// The model as generated.
+    Base,
+    /// Rotation by 7°, 8°, 9° about x, y, z.
+    Rotate789,
+    /// A random rotation (uniform unit quaternion from the seed).
+    RotateRandom(u64),
+    /// Every vertex shifted by (o, 0.7 o, -0.4 o).
+    Offset(f64),
+    /// Every vertex scaled by s about the origin.
+    Scale(f64),
+    /// Uniform noise of this fraction of the bounding-box diagonal on every coordinate.
+    Noise(f64),
+    /// Faces shuffled and each face's first vertex rotated (seeded).
+    Shuffle(u64),
+    /// Every polygon split into a fan around its centroid.
+    CentroidSplit,
+    /// Every fifth face duplicated.
+    Duplicate,
+    /// Every fifth face duplicated with reversed orientation (a two-sided wall there).
+    FlippedDuplicate,
+}
+
+impl std::fmt::Display for Variant {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Variant::Base => write!(f, "base"),
+            Variant::Rotate789 => write!(f, "rotate 7/8/9"),
+            Variant::RotateRandom(s) => write!(f, "rotate random {s}"),
+            Variant::Offset(o) => write!(f, "offset {o:.0e}"),
+            Variant::Scale(s) => write!(f, "scale {s:.0e}"),
+            Variant::Noise(e) => write!(f, "noise {e:.0e}"),
+            Variant::Shuffle(s) => write!(f, "shuffle {s}"),
+            Variant::CentroidSplit => write!(f, "centroid split"),
+            Variant::Duplicate => write!(f, "duplicate faces"),
+            Variant::FlippedDuplicate => write!(f, "flipped duplicates"),
+        }
+    }
+}
+
+/// The variants of the full table (`quick`: a subset of one of each kind).
+pub fn variants(quick: bool) -> Vec<Variant> {
+    use Variant::*;
+    if quick {
+        return vec![
+            Base,
+            Rotate789,
+            RotateRandom(1),
+            Offset(1e6),
+            Scale(1e-4),
+            Noise(1e-6),
+            Shuffle(1),
+            CentroidSplit,
+            Duplicate,
+        ];
+    }
+    vec![
+        Base,
+        Rotate789,
+        RotateRandom(1),
+        RotateRandom(2),
+        RotateRandom(3),
+        Offset(1e3),
+        Offset(1e6),
+        Offset(1e9),
+        Scale(1e-4),
+        Scale(1e6),
+        Noise(1e-7),
+        Noise(1e-6),
+        Noise(1e-5),
+        Noise(1e-4),
+        Noise(1e-3),
+        Noise(1e-2),
+        Shuffle(1),
+        Shuffle(2),
+        CentroidSplit,
+        Duplicate,
+        FlippedDuplicate,
+    ]
+}
+
+/// The models of the table: (family, seed).
+pub fn models(quick: bool) -> Vec<(Family, u64)> {
+    if quick {
+        vec![(Family::Thesis, 0), (Family::Thesis, 2), (Family::Tessellated, 1)]
+    } else {
+        let mut m: Vec<(Family, u64)> = (0..6).map(|s| (Family::Thesis, s)).collect();
+        m.extend([
+            (Family::Tessellated, 1),
+            (Family::Greedy, 1),
+            (Family::MultiStorey, 1),
+            (Family::Caverns, 1),
+        ]);
+        m
+    }
+}
+
+fn random_rotation(seed: u64) -> [[f64; 3]; 3] {
+    let mut rng = SplitMix64(seed);
+    let (mut q, mut n) = ([0.0; 4], 0.0);
+    while !(n > 0.1 && n <= 1.0) {
+        q = [
+            rng.signed_unit(),
+            rng.signed_unit(),
+            rng.signed_unit(),
+            rng.signed_unit(),
+        ];
+        n = q.iter().map(|x| x * x).sum::<f64>();
+    }
+    let n = n.sqrt();
+    let [w, x, y, z] = q.map(|c| c / n);
+    [
+        [
+            1.0 - 2.0 * (y * y + z * z),
+            2.0 * (x * y - w * z),
+            2.0 * (x * z + w * y),
+        ],
+        [
+            2.0 * (x * y + w * z),
+            1.0 - 2.0 * (x * x + z * z),
+            2.0 * (y * z - w * x),
+        ],
+        [
+            2.0 * (x * z - w * y),
+            2.0 * (y * z + w * x),
+            1.0 - 2.0 * (x * x + y * y),
+        ],
+    ]
+}
+
+/// The point map of a rigid motion or scaling (`None` for the other variants).
+fn point_map(v: Variant) -> Option<Box<dyn Fn(P3) -> P3>> {
+    match v {
+        Variant::Rotate789 => Some(Box::new(crate::base::rigid::rotate_789)),
+        Variant::RotateRandom(s) => {
+            let r = random_rotation(s);
+            Some(Box::new(move |a: P3| {
+                [0, 1, 2].map(|i| r[i][0] * a[0] + r[i][1] * a[1] + r[i][2] * a[2])
+            }))
+        }
+        Variant::Offset(o) => Some(Box::new(move |a: P3| [a[0] + o, a[1] + 0.7 * o, a[2] - 0.4 * o])),
+        Variant::Scale(s) => Some(Box::new(move |a: P3| a.map(|x| x * s))),
+        _ => None,
+    }
+}
+
+/// The soup of `v` applied to (vertices, polygons).
+pub fn apply(v: Variant, vs: &[P3], ps: &[Vec<u32>]) -> (Vec<P3>, Vec<Vec<u32>>) {
+    let (mut vs, mut ps) = (vs.to_vec(), ps.to_vec());
+    if let Some(f) = point_map(v) {
+        for p in &mut vs {
+            *p = f(*p);
+        }
+        return (vs, ps);
+    }
+    match v {
+        Variant::Noise(e) => {
+            let (lo, hi) = crate::model::bbox_of(vs.iter());
+            let diag = crate::base::vec::norm(&crate::base::vec::sub(&hi, &lo));
+            let mut rng = SplitMix64(0x5eed ^ e.to_bits());
+            for p in &mut vs {
+                for x in p.iter_mut() {
+                    *x += e * diag * rng.signed_unit();
+                }
+            }
+        }
+        Variant::Shuffle(s) => {
+            let mut rng = SplitMix64(s);
+            for i in (1..ps.len()).rev() {
+                ps.swap(i, rng.below(i + 1));
+            }
+            for p in &mut ps {
+                let r = rng.below(p.len());
+                p.rotate_left(r);
+            }
+        }
+        Variant::CentroidSplit => {
+            let mut out = Vec::new();
+            for p in &ps {
+                let c = crate::base::vec::weighted_mean(p.iter().map(|&i| (1.0, vs[i as usize])));
+                let ci = vs.len() as u32;
+                vs.push(c);
+                for k in 0..p.len() {
+                    out.push(vec![p[k], p[(k + 1) % p.len()], ci]);
+                }
+            }
+            ps = out;
+        }
+        Variant::Duplicate | Variant::FlippedDuplicate => {
+            let n = ps.len();
+            for i in (0..n).step_by(5) {
+                let mut f = ps[i].clone();
+                if v == Variant::FlippedDuplicate {
+                    f.reverse();
+                }
+                ps.push(f);
+            }
+        }
+        _ => {}
+    }
+    (vs, ps)
+}
+
+/// One row of the table.
+#[derive(Clone, Debug, Serialize)]
+pub struct Row {
+    /// Suite case name.
+    pub model: String,
+    /// Variant.
+    pub variant: String,
+    /// `ok`, or what failed: `refused: ..` (the loader), `invalid cells: ..` (the
+    /// pipeline's structural check: no decimation), `invalid: ..` (full validation).
+    pub validation: String,
+    /// Leaks.
+    pub leaks: usize,
+    /// Interior regions.
+    pub regions: usize,
+    /// Active cells.
+    pub active_cells: usize,
+    /// Final portals after the default decimation (clearance at its own stop).
+    pub final_portals: usize,
+    /// Rooms isolated.
+    pub rooms_isolated: usize,
+    /// Rooms of the truth.
+    pub rooms: usize,
+    /// The same rooms isolated as the unmoved model (base row).
+    pub same_rooms: bool,
+    /// Seconds for this variant.
+    pub seconds: f64,
+}
+
+/// The isolated rooms (indices) of a partition: all a room's samples in one final cell
+/// that holds no other room's sample.
+fn isolated_rooms(cx: &crate::complex::CellComplex, dec: &Decimation, samples: &[Vec<P3>]) -> Vec<usize> {
+    let cells: Vec<Vec<Option<usize>>> = samples
+        .iter()
+        .map(|s| {
+            locate_in_complex(cx, s)
+                .into_iter()
+                .map(|c| c.and_then(|c| dec.partition.cell_of(c)))
+                .collect()
+        })
+        .collect();
+    (0..samples.len())
+        .filter(|&r| {
+            let Some(Some(c)) = cells[r].first().copied() else {
+                return false;
+            };
+            cells[r].iter().all(|&x| x == Some(c))
+                && (0..samples.len()).all(|o| o == r || cells[o].iter().all(|&x| x != Some(c)))
+        })
+        .collect()
+}
+
+/// Runs every variant of one case; `progress(variant)` before each.
+pub fn run_case(c: &SuiteCase, variants: &[Variant], progress: &mut dyn FnMut(&str)) -> Vec<Row> {
+    let mut rows = Vec::new();
+    let mut base: Option<Vec<usize>> = None;
+    for &v in variants {
+        progress(&format!("{} {v}", c.name));
+        let t0 = Instant::now();
+        let (vs, ps) = apply(v, &c.model.vertices, &c.model.polygons);
+        let map = point_map(v);
+        let samples: Vec<Vec<P3>> = c
+            .truth
+            .rooms
+            .iter()
+            .map(|r| r.samples.iter().map(|&p| map.as_ref().map_or(p, |f| f(p))).collect())
+            .collect();
+        let mut row = Row {
+            model: c.name.clone(),
+            variant: v.to_string(),
+            validation: "ok".into(),
+            leaks: 0,
+            regions: 0,
+            active_cells: 0,
+            final_portals: 0,
+            rooms_isolated: 0,
+            rooms: samples.len(),
+            same_rooms: false,
+            seconds: 0.0,
+        };
+        let m = match from_soup(&c.name, vs, ps) {
+            Ok(m) => m,
+            Err(e) => {
+                row.validation = format!("refused: {e}");
+                row.seconds = t0.elapsed().as_secs_f64();
+                rows.push(row);
+                continue;
+            }
+        };
+        match crate::pipeline::complex_of(&m) {
+            Err(e) => {
+                let mut msg = e.to_string();
+                let mut src = std::error::Error::source(&e);
+                while let Some(s) = src {
+                    msg = format!("{msg}: {s}");
+                    src = s.source();
+                }
+                row.validation = format!("invalid cells: {msg}");
+            }
+            Ok(cx) => {
+                if let Err(e) = cx.validate(&m) {
+                    row.validation = format!("invalid: {e}");
+                }
+                row.leaks = cx.stats.leaks;
+                row.regions = cx.stats.interior_regions;
+                row.active_cells = cx.stats.active_cells;
+                let mut settings = crate::decimate::Settings::default();
+                settings.stop = settings.heuristic.default_stop();
+                let dec = Decimation::run(&cx, &settings);
+                row.final_portals = dec.partition.portals(&cx).len();
+                let iso = isolated_rooms(&cx, &dec, &samples);
+                row.rooms_isolated = iso.len();
+                if v == Variant::Base {
+                    base = Some(iso.clone());
+                }
+                row.same_rooms = base.as_ref() == Some(&iso);
+            }
+        }
+        row.seconds = t0.elapsed().as_secs_f64();
+        rows.push(row);
+    }
+    rows
+}
+
+/// The whole table.
+pub fn run(quick: bool, progress: &mut dyn FnMut(&str)) -> Vec<Row> {
+    let vs = variants(quick);
+    models(quick)
+        .into_iter()
+        .filter_map(|(f, s)| case(f, s))
+        .flat_map(|c| run_case(&c, &vs, progress))
+        .collect()
+}
+
+/// The headline: rows, validation failures, leaks in rows whose base had none, rows whose
+/// rooms differ from the base.
+pub fn headline(rows: &[Row]) -> String {
+    let invalid = rows.iter().filter(|r| r.validation != "ok").count();
+    let leaky = rows.iter().filter(|r| r.leaks > 0).count();
+    let moved = rows.iter().filter(|r| !r.same_rooms).count();
+    format!(
+        "{} variants: {invalid} fail validation, {leaky} leak, {moved} isolate other rooms than the unmoved model",
+        rows.len()
+    )
+}
+
+/// The table as Markdown.
+pub fn table(rows: &[Row]) -> String {
+    let mut s = String::from(
+        "| model | variant | validation | leaks | regions | active cells | final portals | rooms isolated | same rooms | s |\n|---|---|---|---:|---:|---:|---:|---:|---|---:|\n",
+    );
+    for r in rows {
+        let v: String = r.validation.chars().take(70).collect();
+        s += &format!(
+            "| {} | {} | {} | {} | {} | {} | {} | {}/{} | {} | {:.2} |\n",
+            r.model,
+            r.variant,
+            v,
+            r.leaks,
+            r.regions,
+            r.active_cells,
+            r.final_portals,
+            r.rooms_isolated,
+            r.rooms,
+            if r.same_rooms { "yes" } else { "no" },
+            r.seconds
+        );
+    }
+    s += &format!("\n{}\n", headline(rows));
+    s
+}
+
+/// Writes `stress.csv`, `stress.json` and `table.md` into `dir`.
+pub fn write_all(rows: &[Row], dir: &std::path::Path) -> std::io::Result<()> {
+    std::fs::create_dir_all(dir)?;
+    let mut w = csv::Writer::from_path(dir.join("stress.csv")).map_err(std::io::Error::other)?;
+    for r in rows {
+        w.serialize(r).map_err(std::io::Error::other)?;
+    }
+    w.flush()?;
+    let json = serde_json::to_string_pretty(rows).map_err(std::io::Error::other)?;
+    crate::model::write::write_atomic(&dir.join("stress.json"), json.as_bytes())?;
+    crate::model::write::write_atomic(&dir.join("table.md"), table(rows).as_bytes())?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn variants_keep_polygons_and_map_points() {
+        let vs = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        let ps = vec![vec![0, 1, 2]];
+        let (v2, p2) = apply(Variant::CentroidSplit, &vs, &ps);
+        assert_eq!((v2.len(), p2.len()), (4, 3));
+        let (v3, _) = apply(Variant::Offset(1e3), &vs, &ps);
+        assert_eq!(v3[1], [1001.0, 700.0, -400.0]);
+        let (_, p4) = apply(Variant::FlippedDuplicate, &vs, &ps);
+        assert_eq!(p4, vec![vec![0, 1, 2], vec![2, 1, 0]]);
+    }
+}
