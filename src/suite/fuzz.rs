@@ -927,7 +927,8 @@ mod tests {
 
     #[test]
     fn cases_reproduce_and_shrink_keeps_the_bucket() {
-        let corpus = vec![("a.obj".to_string(), b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n".to_vec())];
+        let tet = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 1 4 3\n";
+        let corpus = vec![("a.obj".to_string(), tet.to_vec())];
         let l = Limits::default();
         for i in 0..50 {
             assert_eq!(
@@ -935,8 +936,17 @@ mod tests {
                 case_input(Target::Pipeline, &corpus, 7, i, &l)
             );
         }
-        // A reader check on a well-formed file passes.
-        assert_eq!(check(Target::Obj, &corpus[0].1, &l), Outcome::Pass);
+        // A closed tetrahedron passes every target's check.
+        for t in Target::ALL {
+            assert_eq!(
+                check(t, &corpus[0].1, &l),
+                if t == Target::Mesh {
+                    Outcome::Refused
+                } else {
+                    Outcome::Pass
+                }
+            );
+        }
         assert_eq!(check(Target::Obj, b"f 1 2 3\n", &l), Outcome::Refused);
     }
 }
