@@ -260,8 +260,9 @@ struct Frame<'a> {
 struct Flow<'a> {
     dp: &'a [DPortal],
     out: &'a [Vec<u32>],
-    base: &'a [BitSet],
-    fin: &'a [Option<BitSet>],
+    /// Per directed portal, `words` words: its final visibility once computed, else its
+    /// base visibility (one array: the flow reads these at every step).
+    bounds: &'a [u64],
     on_stack: Vec<bool>,
     vis: BitSet,
     /// The root's base visibility: once `vis` holds all of it, the source is done.
@@ -301,26 +302,16 @@ impl Flow<'_> {
                 return;
             }
             let p = &self.dp[pi as usize];
-            let (prev_might, might) = self.mights.split_at_mut(lo);
-            let prev_might = &prev_might[prev.depth * words..];
-            let might = &mut might[..words];
+            let prev_might = &self.mights[prev.depth * words..lo];
             if self.on_stack[p.piece as usize]
                 || (self.no_reentry && self.cell_on_stack[p.to as usize])
                 || prev_might[p.to as usize / 64] & (1 << (p.to % 64)) == 0
             {
                 continue;
             }
-            let test = match &self.fin[pi as usize] {
-                Some(f) => f.words(),
-                None => self.base[pi as usize].words(),
-            };
-            let mut more = 0u64;
+            let test = &self.bounds[pi as usize * words..(pi as usize + 1) * words];
             let vw = self.vis.words();
-            for k in 0..words {
-                might[k] = prev_might[k] & test[k];
-                more |= might[k] & !vw[k];
-            }
-            if more == 0 {
+            if !(0..words).any(|k| prev_might[k] & test[k] & !vw[k] != 0) {
                 continue;
             }
             // A line cannot leave through a plane facing back the way it came.
@@ -348,6 +339,13 @@ impl Flow<'_> {
                     pass
                 }
             };
+            {
+                let (prev_might, might) = self.mights.split_at_mut(lo);
+                let prev_might = &prev_might[prev.depth * words..];
+                for k in 0..words {
+                    might[k] = prev_might[k] & test[k];
+                }
+            }
             if self.chains >= self.budget {
                 // Out of budget: everything this branch could still see is visible.
                 self.truncated += 1;
@@ -445,6 +443,11 @@ fn compute_inner(graph: &PortalGraph, settings: &PvsSettings) -> Pvs {
         }
     }
     stats.directed_portals = dp.len();
+    // Largest pieces first: they find most, so their siblings are cut sooner.
+    let area = |p: &DPortal| norm(&crate::base::vec::fan_normal(&p.poly));
+    for o in &mut out {
+        o.sort_by(|&a, &b| area(&dp[b as usize]).total_cmp(&area(&dp[a as usize])).then(a.cmp(&b)));
+    }
     // Base visibility: flood through portals partly in front of the source that the source
     // lies partly behind.
     let t0 = Instant::now();
@@ -492,18 +495,20 @@ fn compute_inner(graph: &PortalGraph, settings: &PvsSettings) -> Pvs {
     let t0 = Instant::now();
     let mut order: Vec<usize> = (0..dp.len()).collect();
     order.sort_by_key(|&k| (base[k].count(), k));
-    let mut fin: Vec<Option<BitSet>> = vec![None; dp.len()];
+    let words = n.div_ceil(64);
+    let mut bounds = vec![0u64; dp.len() * words];
+    for (k, b) in base.iter().enumerate() {
+        bounds[k * words..(k + 1) * words].copy_from_slice(b.words());
+    }
     let mut on_stack = vec![false; piece as usize];
     let mut cell_on_stack = vec![false; n];
-    let words = n.div_ceil(64);
     let mut mights: Vec<u64> = Vec::new();
     for &k in &order {
         let s = &dp[k];
         let mut flow = Flow {
             dp: &dp,
             out: &out,
-            base: &base,
-            fin: &fin,
+            bounds: &bounds,
             on_stack: std::mem::take(&mut on_stack),
             vis: BitSet::new(n),
             root_might: base[k].words(),
@@ -534,7 +539,10 @@ fn compute_inner(graph: &PortalGraph, settings: &PvsSettings) -> Pvs {
         flow.on_stack[s.piece as usize] = true;
         flow.cell_on_stack[from[k] as usize] = true;
         flow.cell_on_stack[s.to as usize] = true;
-        flow.flow(s.to, &root);
+        flow.done = flow.root_might.iter().zip(flow.vis.words()).all(|(m, v)| m & !v == 0);
+        if !flow.done {
+            flow.flow(s.to, &root);
+        }
         flow.cell_on_stack[s.to as usize] = false;
         flow.cell_on_stack[from[k] as usize] = false;
         flow.on_stack[s.piece as usize] = false;
@@ -545,12 +553,8 @@ fn compute_inner(graph: &PortalGraph, settings: &PvsSettings) -> Pvs {
         on_stack = flow.on_stack;
         cell_on_stack = flow.cell_on_stack;
         let vis = flow.vis;
-        fin[k] = Some(vis);
-    }
-    for (k, f) in fin.iter().enumerate() {
-        if let Some(f) = f {
-            sets[from[k] as usize].union_with(f);
-        }
+        bounds[k * words..(k + 1) * words].copy_from_slice(vis.words());
+        sets[from[k] as usize].union_with(&vis);
     }
     stats.flow_seconds = t0.elapsed().as_secs_f64();
     Pvs { sets, stats }

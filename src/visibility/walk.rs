@@ -483,10 +483,7 @@ pub fn camera_path(scene: &Scene) -> Vec<PathPoint> {
             let Some((x, y, m)) = crossing(cell, b) else { continue };
             seen[b] = true;
             walk_inside(here, x, &mut path);
-            path.push(PathPoint {
-                p: m,
-                cell: cell as u32,
-            });
+            path.push(PathPoint { p: m, cell: b as u32 });
             path.push(PathPoint {
                 p: centroid(y),
                 cell: b as u32,
@@ -502,7 +499,7 @@ pub fn camera_path(scene: &Scene) -> Vec<PathPoint> {
                     let _ = x;
                     path.push(PathPoint {
                         p: m,
-                        cell: cell as u32,
+                        cell: parent as u32,
                     });
                     path.push(PathPoint {
                         p: centroid(y),
