@@ -253,23 +253,21 @@ impl Window for ExactWindow {
     fn narrow(&self, cam: &Camera, portal: &[P3], ops: &mut Ops) -> Option<Self> {
         ops.narrows += 1;
         let q = clip(portal, &self.planes, ops)?;
-        let c = crate::base::vec::mean(&q);
         let mut planes = vec![cam.near_plane()];
+        // The portal is counter-clockwise around its normal and the eye is behind it, so
+        // (q_i − e) × (q_{i+1} − e) points into the window for every edge (the sign of
+        // det[q_i − e, q_{i+1} − e, c − e] for an interior point c is that of the eye's
+        // depth behind the plane); no per-edge orientation test, which fails edge-on.
         for i in 0..q.len() {
             let j = (i + 1) % q.len();
             let n = cross(&sub(&q[i], &cam.eye), &sub(&q[j], &cam.eye));
             if norm(&n) <= 1e-300 {
                 continue;
             }
-            let mut pl = Plane {
+            planes.push(Plane {
                 n,
                 d: dot(&n, &cam.eye),
-            };
-            if dot(&pl.n, &c) - pl.d < 0.0 {
-                pl.n = [-n[0], -n[1], -n[2]];
-                pl.d = -pl.d;
-            }
-            planes.push(pl);
+            });
         }
         Some(ExactWindow { planes })
     }
