@@ -21,6 +21,7 @@ pub mod bsp;
 pub mod complex;
 pub mod decimate;
 pub mod delaunay;
+pub mod evaluate;
 pub mod experiment;
 pub mod generate;
 pub mod geom;

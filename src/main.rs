@@ -137,6 +137,54 @@ enum Cmd {
         /// Default: none. See the README's "Exports".
         #[arg(long, value_delimiter = ',', value_parser = export_format)]
         export: Vec<String>,
+        /// Also evaluate the partition's visibility, as `portalfind evaluate` does, and write
+        /// its files into --out (see `portalfind evaluate --help`).
+        #[arg(long)]
+        evaluate: bool,
+        #[command(flatten)]
+        eval: EvalArgs,
+    },
+    /// Visibility of a run's cells: PVS, rendering cost, conservativeness, walkthroughs.
+    ///
+    /// Re-reads DIR (written by `portalfind run --out DIR` or by an experiment): loads the
+    /// model named in DIR/result.json, rebuilds its cells and replays the collapses of
+    /// DIR/weight_curve.csv (nothing is re-decided; the cell ids must match result.json).
+    /// Then, and printed:
+    ///
+    /// - PVS: for each cell the cells some line through a portal sequence may reach
+    ///   (Quake vis's portal flow with separating planes; conservative: a merged cell sees
+    ///   all of its own portals). Sizes in cells (mean, max, volume-weighted).
+    ///
+    /// - Cost: each model polygon belongs to the cells it faces; a cell's cost is the
+    ///   triangles (and area) of the polygons of its PVS. E_T = Σ vol·T(PVS) / Σ vol, the
+    ///   expected triangles drawn from a random viewpoint; the area fraction (PVS area over
+    ///   the model's, independent of tessellation); the culling ratio 1 − E_T / triangles.
+    ///
+    /// - Conservativeness by sampling: random points in each cell, random rays, first
+    ///   polygon hit; a hit outside the PVS is a false invisible (must be 0). The
+    ///   overestimation is PVS triangles / sampled-visible triangles per cell.
+    ///
+    /// - With --walkthrough: a camera tours every cell through portal centres; per frame the
+    ///   triangles drawn by view-frustum culling, portal culling (exact frustum and screen
+    ///   rectangles) and portal textures (portals deeper than k drawn as 2-triangle quads).
+    ///
+    /// Writes DIR/visibility.json, DIR/visibility_cells.csv and, with --walkthrough,
+    /// DIR/walkthrough.csv, .png and .md (or into --out).
+    ///
+    /// Example: portalfind run models/thesis/four_room_optimized.obj --out out/fr &&
+    /// portalfind evaluate out/fr --walkthrough
+    Evaluate {
+        /// Output directory of `portalfind run` (or of one experiment).
+        dir: PathBuf,
+        /// The model, when it is no longer at the path result.json records (relative to the
+        /// directory the run was started in).
+        #[arg(long)]
+        model: Option<PathBuf>,
+        /// Write the files here instead of into DIR (created if missing).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        #[command(flatten)]
+        eval: EvalArgs,
     },
     /// Run experiment definitions (the thesis reproduction): every `*.json` of a directory,
     /// or one file. Each experiment writes OUT/NAME/ (result.json, evaluation.json, weight
@@ -168,6 +216,62 @@ enum Cmd {
         /// a first row of names (such as x,y,z) is taken as a header.
         points: PathBuf,
     },
+}
+
+/// Options of the visibility evaluation (`evaluate`, `run --evaluate`).
+#[derive(clap::Args)]
+struct EvalArgs {
+    /// Also run a walkthrough (implies --evaluate for `run`).
+    #[arg(long)]
+    walkthrough: bool,
+    /// Skip the sampling check.
+    #[arg(long)]
+    no_sampling: bool,
+    /// Sampling: random points per cell.
+    #[arg(long, default_value_t = 16)]
+    points_per_cell: usize,
+    /// Sampling: random rays per point.
+    #[arg(long, default_value_t = 64)]
+    rays_per_point: usize,
+    /// Sampling: seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// PVS work bound, flow steps per source portal; beyond it a branch marks everything
+    /// it could still see (conservative, coarser).
+    #[arg(long, default_value_t = portalfind::visibility::PvsSettings::default().max_steps_per_source)]
+    pvs_budget: u64,
+    /// PVS: let portal chains re-enter cells (the old, slow rule; for comparison only).
+    #[arg(long)]
+    pvs_revisit_cells: bool,
+    /// Walkthrough: horizontal field of view in degrees (the image is 4:3).
+    #[arg(long, default_value_t = 90.0)]
+    fov: f64,
+    /// Walkthrough: the model's up axis (x, y or z).
+    #[arg(long, default_value = "z", value_parser = ["x", "y", "z"])]
+    up: String,
+}
+
+impl EvalArgs {
+    fn settings(&self) -> portalfind::evaluate::Settings {
+        use portalfind::visibility::{PvsSettings, sample::SampleSettings, walk::WalkSettings};
+        portalfind::evaluate::Settings {
+            pvs: PvsSettings {
+                max_steps_per_source: self.pvs_budget,
+                revisit_cells: self.pvs_revisit_cells,
+                ..Default::default()
+            },
+            sampling: (!self.no_sampling).then_some(SampleSettings {
+                seed: self.seed,
+                points_per_cell: self.points_per_cell,
+                rays_per_point: self.rays_per_point,
+            }),
+            walkthrough: self.walkthrough.then(|| WalkSettings {
+                fov_deg: self.fov,
+                up_axis: ["x", "y", "z"].iter().position(|a| *a == self.up).unwrap_or(2),
+                ..Default::default()
+            }),
+        }
+    }
 }
 
 #[derive(Subcommand)]
@@ -526,6 +630,8 @@ fn run(cli: Cli) -> Result<()> {
             seal_holes,
             snapshots,
             export,
+            evaluate,
+            eval,
         } => with_output_dir(&out, || {
             run_decimation(
                 &model,
@@ -536,8 +642,16 @@ fn run(cli: Cli) -> Result<()> {
                 cell_settings(subdivision, bsp_candidates, seal_holes),
                 &snapshots,
                 &export,
+                (evaluate || eval.walkthrough).then(|| eval.settings()),
             )
         }),
+        Cmd::Evaluate { dir, model, out, eval } => {
+            let o = portalfind::evaluate::evaluate_dir(&dir, model.as_deref(), &eval.settings())
+                .with_context(|| format!("cannot evaluate {}", dir.display()))?;
+            let out = out.unwrap_or(dir);
+            std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
+            print_evaluation(&o, &out)
+        }
         Cmd::Locate { dir, points } => locate(&dir, &points),
         Cmd::Experiment { path, out, only } => experiment(&path, out, &only),
     }
@@ -978,6 +1092,7 @@ fn run_decimation(
     how: CellSettings,
     snapshot_counts: &[usize],
     export: &[String],
+    evaluate: Option<portalfind::evaluate::Settings>,
 ) -> Result<()> {
     use portalfind::decimate::{QueueMode, Settings};
     let t0 = Instant::now();
@@ -1122,6 +1237,98 @@ fn run_decimation(
     }
     print_sealed(&sealed);
     report_leaks_and_orientation(&cx);
+    if let Some(settings) = evaluate {
+        println!();
+        let rs = serde_json::to_value(&doc.settings).unwrap_or_default();
+        let o = portalfind::evaluate::evaluate_partition(
+            &m,
+            &doc.model.path,
+            rs,
+            &cx,
+            &dec.partition,
+            &settings,
+            Vec::new(),
+        );
+        print_evaluation(&o, out)?;
+    }
+    Ok(())
+}
+
+/// Prints an evaluation's figures and writes its files into `dir`.
+fn print_evaluation(o: &portalfind::evaluate::Output, dir: &std::path::Path) -> Result<()> {
+    let e = &o.evaluation;
+    let r = &e.report;
+    println!("{:<44}{:>10}", "stage", "seconds");
+    for s in &e.stages {
+        println!("{:<44}{:>10.3}", s.stage, s.seconds);
+    }
+    println!();
+    let mut rows = vec![
+        (
+            "cells / portals / portal pieces".to_string(),
+            format!("{} / {} / {}", r.cells, r.portals, r.portal_pieces),
+        ),
+        (
+            "PVS cells: mean / max".into(),
+            format!("{:.1} / {}", r.pvs_mean_cells, r.pvs_max_cells),
+        ),
+        (
+            "PVS cells, volume-weighted".into(),
+            format!("{:.1}", r.expected_pvs_cells),
+        ),
+        (
+            "PVS flow chains / sources truncated".into(),
+            format!("{} / {}", r.pvs.chains, r.pvs.sources_truncated),
+        ),
+        (
+            "triangles (in no cell)".into(),
+            format!("{} ({})", r.total_triangles, r.triangles_in_no_cell),
+        ),
+        (
+            "E_T (expected triangles drawn)".into(),
+            format!("{:.1}", r.expected_triangles),
+        ),
+        ("PVS area fraction".into(), format!("{:.4}", r.area_fraction)),
+        ("culling ratio".into(), format!("{:.4}", r.culling_ratio)),
+    ];
+    if let Some(s) = &r.sampling {
+        rows.push(("sampling: rays (points)".into(), format!("{} ({})", s.rays, s.points)));
+        rows.push((
+            "sampling: false invisibles (rate)".into(),
+            format!(
+                "{} ({:.2e})",
+                s.false_invisible,
+                s.false_invisible as f64 / s.rays.max(1) as f64
+            ),
+        ));
+        rows.push((
+            "sampling: overestimation mean / median / max".into(),
+            format!(
+                "{:.2} / {:.2} / {:.2}",
+                s.overestimation_mean, s.overestimation_median, s.overestimation_max
+            ),
+        ));
+        rows.push((
+            "sampling: E_T of the sampled visible sets".into(),
+            format!("{:.1}", s.expected_sampled_triangles),
+        ));
+    }
+    for (k, v) in rows {
+        println!("{k:<44}{v:>24}");
+    }
+    if let Some(w) = &e.walkthrough {
+        println!();
+        print!("{}", portalfind::evaluate::walkthrough_table(w));
+    }
+    let title = std::path::Path::new(&e.model)
+        .file_stem()
+        .map_or_else(|| e.model.clone(), |s| s.to_string_lossy().into_owned());
+    for f in portalfind::evaluate::write(dir, o, &title)? {
+        println!("wrote {}", f.display());
+    }
+    if r.sampling.as_ref().is_some_and(|s| s.false_invisible > 0) {
+        bail!("the PVS missed polygons the sampling saw (false invisibles); please report the model");
+    }
     Ok(())
 }
 

@@ -18,7 +18,7 @@ const LAYERS: &[&[&str]] = &[
     &["rooms", "visibility"],
     &["output"],
     &["pipeline"],
-    &["experiment", "bench"],
+    &["experiment", "bench", "evaluate"],
     &["suite"],
 ];
 

@@ -391,3 +391,161 @@ fn e1m1_measurements() {
         );
     }
 }
+
+/// Three cells in a row joined by two portals on the plane x = 0: the corridor (cell 1)
+/// turns back, so a line entering it through the first cannot leave through the second.
+/// Costs by hand: triangles 10, 20, 30 and volumes 1, 2, 3; the PVS of the ends are
+/// {0, 1} and {1, 2}, of the middle all: T = 30, 60, 50, E_T = (30 + 120 + 150) / 6 = 50.
+#[test]
+fn corridor_turning_back_costs_by_hand() {
+    let sq = |x: f64, y0: f64, y1: f64, flip: bool| {
+        let mut v = vec![[x, y0, 0.0], [x, y1, 0.0], [x, y1, 1.0], [x, y0, 1.0]];
+        if flip {
+            v.reverse();
+        }
+        v
+    };
+    let g = PortalGraph {
+        cells: 3,
+        convex_cells: false,
+        portals: vec![
+            portalfind::visibility::GraphPortal {
+                cells: [0, 1],
+                pieces: vec![sq(0.0, 0.0, 1.0, false)], // normal +x, into the corridor
+            },
+            portalfind::visibility::GraphPortal {
+                cells: [1, 2],
+                pieces: vec![sq(0.0, 2.0, 3.0, true)], // normal -x, out of it
+            },
+        ],
+    };
+    for revisit in [false, true] {
+        let pv = pvs::compute(
+            &g,
+            &PvsSettings {
+                revisit_cells: revisit,
+                ..Default::default()
+            },
+        );
+        assert!(!pv.sees(0, 2) && !pv.sees(2, 0));
+        assert!(pv.sees(1, 0) && pv.sees(1, 2) && pv.sees(0, 1));
+        let polys = CellPolygons {
+            polygons: vec![vec![0], vec![1], vec![2]],
+            triangles: vec![10, 20, 30],
+            area: vec![1.0, 2.0, 3.0],
+            in_some_cell: vec![true; 3],
+        };
+        let (r, cells) = cost::evaluate(&pv, &polys, &[1.0, 2.0, 3.0]);
+        let t: Vec<u64> = cells.iter().map(|c| c.pvs_triangles).collect();
+        assert_eq!(t, [30, 60, 50]);
+        assert!((r.expected_triangles - 50.0).abs() < 1e-9);
+        assert!((r.culling_ratio - (1.0 - 50.0 / 60.0)).abs() < 1e-12);
+        assert!((r.pvs_mean_cells - 7.0 / 3.0).abs() < 1e-12);
+        assert_eq!(r.pvs_max_cells, 3);
+        // The same corridor straightened (second portal at x = 1, facing +x): the ends see
+        // each other.
+        let mut h = g.clone();
+        h.portals[1].pieces = vec![sq(1.0, 0.0, 1.0, false)];
+        assert!(pvs::compute(&h, &PvsSettings::default()).sees(0, 2));
+    }
+}
+
+/// The flow that never re-enters a cell gives, on decimated thesis models, sets that are
+/// subsets of the old rule's (re-entering allowed) and still conservative by sampling.
+#[test]
+fn no_reentry_is_tighter_and_conservative_on_thesis_models() {
+    for name in ["four_room_optimized", "four_room_distorted", "noisy", "caverns"] {
+        let s = portalfind::generate::thesis::by_name(name).unwrap().soup;
+        let (m, cx) = build(&s);
+        let part = decimated(&cx, (cx.stats.active_cells / 8).clamp(4, 150));
+        let new = PartitionVisibility::compute(&m, &cx, &part, &PvsSettings::default());
+        let old = PartitionVisibility::compute(
+            &m,
+            &cx,
+            &part,
+            &PvsSettings {
+                revisit_cells: true,
+                ..Default::default()
+            },
+        );
+        let mut tighter = 0;
+        for c in 0..new.pvs.sets.len() {
+            assert!(
+                new.pvs.sets[c].is_subset(&old.pvs.sets[c]),
+                "{name}: cell {c} sees more with the new rule"
+            );
+            tighter += (new.pvs.sets[c] != old.pvs.sets[c]) as usize;
+        }
+        let (srep, _) = sample::check(
+            &m,
+            &cx,
+            &sample::pieces_of_partition(&part),
+            &new.pvs,
+            &new.polygons,
+            &new.cells,
+            &SampleSettings {
+                seed: 3,
+                points_per_cell: 8,
+                rays_per_point: 64,
+            },
+        );
+        eprintln!(
+            "{name}: {} cells; PVS mean {:.2} (old rule {:.2}, {tighter} cells tighter); chains {} (old {}); rays {}, false {}",
+            new.report.cells,
+            new.report.pvs_mean_cells,
+            old.report.pvs_mean_cells,
+            new.pvs.stats.chains,
+            old.pvs.stats.chains,
+            srep.rays,
+            srep.false_invisible
+        );
+        assert_eq!(srep.false_invisible, 0, "{name}: {:?}", srep.false_invisible_examples);
+    }
+}
+
+/// Walkthrough on two rooms in a row: the frame count follows the path length and step,
+/// every frame's camera cell is the cell holding the eye, and per frame portal culling
+/// (either window) draws no more than view-frustum culling.
+#[test]
+fn walkthrough_counts_on_two_rooms() {
+    use portalfind::visibility::walk::{self, Scene, WalkSettings};
+    let (m, cx) = build(&row_of_rooms(2));
+    let part = decimated(&cx, 3);
+    let v = PartitionVisibility::compute(&m, &cx, &part, &PvsSettings::default());
+    let pieces = sample::pieces_of_partition(&part);
+    let scene = Scene {
+        model: &m,
+        cx: &cx,
+        graph: &v.graph,
+        polygons: &v.polygons,
+        pieces: &pieces,
+    };
+    let ws = WalkSettings::default();
+    let (r, frames) = walk::walkthrough(&scene, &ws);
+    let step = ws.step_rel * cx.tol.scale;
+    assert_eq!(r.frames, (r.path_length / step).floor() as usize + 1);
+    assert_eq!(frames.len(), r.frames);
+    // The tour visits every cell and comes back to the first.
+    let path = walk::camera_path(&scene);
+    assert_eq!(path[0].cell, path[path.len() - 1].cell);
+    let mut seen = vec![false; part.len()];
+    for p in &path {
+        seen[p.cell as usize] = true;
+    }
+    assert!(seen.iter().all(|&s| s));
+    for f in &frames {
+        let holder = part.cells.iter().position(|c| {
+            c.pieces
+                .iter()
+                .any(|p| cx.cells[p.idx()].poly.contains(&f.eye, &cx.tol))
+        });
+        assert_eq!(holder, Some(f.cell as usize), "frame {}: eye {:?}", f.frame, f.eye);
+        assert!(f.portal <= f.frustum && f.portal_rect <= f.frustum, "frame {f:?}");
+        assert!(f.frustum <= r.total_triangles);
+    }
+    // Not asserted yet (see the report): the exact window should never draw more than the
+    // rectangle; count the frames where it does.
+    let odd = frames.iter().filter(|f| f.portal > f.portal_rect).count();
+    eprintln!("{} frames; exact window above the rectangle in {odd}", frames.len());
+    assert!(r.mean[1] < r.mean[0], "portal culling culls something: {:?}", r.mean);
+}

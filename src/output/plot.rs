@@ -20,7 +20,7 @@ const FONT_CANDIDATES: [&str; 6] = [
 ];
 
 /// Registers a font as "sans-serif" once; returns whether one is available.
-fn font_available() -> bool {
+pub fn font_available() -> bool {
     static FONT: OnceLock<bool> = OnceLock::new();
     *FONT.get_or_init(|| {
         let env = std::env::var("PORTALFIND_FONT").ok();

@@ -11,6 +11,8 @@
 //!   and area, the volume-weighted expected cost and the culling ratio ([`VisibilityReport`]).
 //! - [`sample`]: random points and rays with a BVH ray caster ([`raycast`]); every polygon
 //!   hit from the front must face a cell of the point's cell's PVS.
+//! - [`walk`]: walkthroughs (view-frustum culling, portal culling with pluggable frustum
+//!   representations, portal textures), as Aliaga & Lastra measured them.
 //!
 //! **Merged cells are not convex.** A cell of a decimated partition is a union of convex
 //! pieces, so a line entering it through one portal may be blocked inside it before it
@@ -26,6 +28,7 @@ pub mod prt;
 pub mod pvs;
 pub mod raycast;
 pub mod sample;
+pub mod walk;
 
 pub use bitset::BitSet;
 pub use cost::{CellPolygons, VisibilityReport};

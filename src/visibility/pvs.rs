@@ -19,8 +19,19 @@
 //! through the portals that lie partly in front of the source and that the source lies
 //! partly behind), then portals in order of increasing base visibility, each branch cut when
 //! what it could still see (the intersection of the base or final visibilities along the
-//! chain) holds no cell not already found. A portal piece is never entered twice in one
-//! chain (a line meets a plane once) — needed for merged cells, which are not convex.
+//! chain) holds no cell not already found, and each source stops once every cell of its
+//! base visibility is found.
+//!
+//! **A chain never enters a cell twice**, on merged (non-convex) cells too. A sight line
+//! from a point of cell `c` crosses portal pieces `q1, q2, …` in order. Where it passes a
+//! cell twice (`… X → … → X → Y …`), dropping the pieces between its first entry into `X`
+//! and its last exit from `X` leaves a shorter walk of the portal graph that the same line
+//! still crosses in order; repeating this (and starting at the last exit from `c`) gives a
+//! walk with distinct cells. Every clipping step below only assumes that a line crosses the
+//! chain's pieces in order, each from back to front, so the flow keeps that walk, and the
+//! cells the line reaches are found. Without the rule a line may zig-zag between two merged
+//! cells through their many pieces, and the number of chains explodes (e1m1 at 1000 cells:
+//! minutes instead of seconds). [`PvsSettings::revisit_cells`] restores the old rule.
 //!
 //! Conservative in doubt: points within `epsilon` of a plane count as on it and are kept;
 //! planes that do not separate strictly (source or pass coplanar with them) are not used;
@@ -46,6 +57,13 @@ pub struct PvsSettings {
     /// visible instead. Conservative, and it bounds the cost of dense graphs (the complex's
     /// own tetrahedral cells), where the number of portal sequences explodes.
     pub max_steps_per_source: u64,
+    /// Let a chain re-enter a cell it already passed through (the rule before the flow
+    /// learnt that it never needs to; kept to compare against). Off: a chain never enters
+    /// a cell twice, on any graph. Conservative for merged (non-convex) cells too: a sight
+    /// line that passes cells `… X … X …` also stabs the shorter portal sequence that
+    /// leaves `X` through the piece it last left it by, and every cell it reaches is still
+    /// found through that sequence (see the module docs).
+    pub revisit_cells: bool,
 }
 
 impl Default for PvsSettings {
@@ -54,6 +72,7 @@ impl Default for PvsSettings {
             epsilon_rel: 1e-6,
             base_only: false,
             max_steps_per_source: 5_000,
+            revisit_cells: false,
         }
     }
 }
@@ -233,51 +252,66 @@ struct Frame<'a> {
     pass: Option<Vec<P3>>,
     n: P3,
     d: f64,
-    might: &'a [u64],
+    /// Depth of this frame's `might` words in [`Flow::mights`].
+    depth: usize,
+    _p: std::marker::PhantomData<&'a ()>,
 }
 
 struct Flow<'a> {
     dp: &'a [DPortal],
     out: &'a [Vec<u32>],
-    base: &'a [BitSet],
-    fin: &'a [Option<BitSet>],
+    /// Per directed portal, `words` words: its final visibility once computed, else its
+    /// base visibility (one array: the flow reads these at every step).
+    bounds: &'a [u64],
     on_stack: Vec<bool>,
     vis: BitSet,
+    /// The root's base visibility: once `vis` holds all of it, the source is done.
+    root_might: &'a [u64],
+    done: bool,
+    /// `might` bitsets by chain depth, `words` each (grown on demand, never freed).
+    mights: Vec<u64>,
+    words: usize,
     eps: f64,
     root_n: P3,
     root_d: f64,
     chains: u64,
     budget: u64,
     truncated: u64,
-    /// Cells are convex (a line enters each at most once).
-    convex: bool,
+    /// Never re-enter a cell of the current chain (see [`PvsSettings::revisit_cells`]).
+    no_reentry: bool,
     cell_on_stack: Vec<bool>,
 }
 
 impl Flow<'_> {
+    fn mark(&mut self, cell: u32) {
+        if self.vis.insert(cell as usize) {
+            self.done = self.root_might.iter().zip(self.vis.words()).all(|(m, v)| m & !v == 0);
+        }
+    }
+
     fn flow(&mut self, cell: u32, prev: &Frame) {
         self.chains += 1;
-        self.vis.insert(cell as usize);
-        let words = prev.might.len();
-        let mut might = vec![0u64; words];
+        self.mark(cell);
+        let words = self.words;
+        let (lo, hi) = ((prev.depth + 1) * words, (prev.depth + 2) * words);
+        if self.mights.len() < hi {
+            self.mights.resize(hi, 0);
+        }
         for &pi in &self.out[cell as usize] {
+            if self.done {
+                return;
+            }
             let p = &self.dp[pi as usize];
+            let prev_might = &self.mights[prev.depth * words..lo];
             if self.on_stack[p.piece as usize]
-                || (self.convex && self.cell_on_stack[p.to as usize])
-                || prev.might[p.to as usize / 64] & (1 << (p.to % 64)) == 0
+                || (self.no_reentry && self.cell_on_stack[p.to as usize])
+                || prev_might[p.to as usize / 64] & (1 << (p.to % 64)) == 0
             {
                 continue;
             }
-            let test = match &self.fin[pi as usize] {
-                Some(f) => f.words(),
-                None => self.base[pi as usize].words(),
-            };
-            let mut more = 0u64;
-            for k in 0..words {
-                might[k] = prev.might[k] & test[k];
-                more |= might[k] & !self.vis.words()[k];
-            }
-            if more == 0 {
+            let test = &self.bounds[pi as usize * words..(pi as usize + 1) * words];
+            let vw = self.vis.words();
+            if !(0..words).any(|k| prev_might[k] & test[k] & !vw[k] != 0) {
                 continue;
             }
             // A line cannot leave through a plane facing back the way it came.
@@ -305,12 +339,21 @@ impl Flow<'_> {
                     pass
                 }
             };
+            {
+                let (prev_might, might) = self.mights.split_at_mut(lo);
+                let prev_might = &prev_might[prev.depth * words..];
+                for k in 0..words {
+                    might[k] = prev_might[k] & test[k];
+                }
+            }
             if self.chains >= self.budget {
                 // Out of budget: everything this branch could still see is visible.
                 self.truncated += 1;
-                for (v, m) in self.vis.words_mut().iter_mut().zip(&might) {
+                let m = &self.mights[lo..hi];
+                for (v, m) in self.vis.words_mut().iter_mut().zip(m) {
                     *v |= m;
                 }
+                self.done = self.root_might.iter().zip(self.vis.words()).all(|(m, v)| m & !v == 0);
                 continue;
             }
             let frame = Frame {
@@ -318,7 +361,8 @@ impl Flow<'_> {
                 pass: Some(pass),
                 n: p.n,
                 d: p.d,
-                might: &might,
+                depth: prev.depth + 1,
+                _p: std::marker::PhantomData,
             };
             let (to, piece) = (p.to, p.piece as usize);
             self.on_stack[piece] = true;
@@ -399,6 +443,11 @@ fn compute_inner(graph: &PortalGraph, settings: &PvsSettings) -> Pvs {
         }
     }
     stats.directed_portals = dp.len();
+    // Largest pieces first: they find most, so their siblings are cut sooner.
+    let area = |p: &DPortal| norm(&crate::base::vec::fan_normal(&p.poly));
+    for o in &mut out {
+        o.sort_by(|&a, &b| area(&dp[b as usize]).total_cmp(&area(&dp[a as usize])).then(a.cmp(&b)));
+    }
     // Base visibility: flood through portals partly in front of the source that the source
     // lies partly behind.
     let t0 = Instant::now();
@@ -446,53 +495,66 @@ fn compute_inner(graph: &PortalGraph, settings: &PvsSettings) -> Pvs {
     let t0 = Instant::now();
     let mut order: Vec<usize> = (0..dp.len()).collect();
     order.sort_by_key(|&k| (base[k].count(), k));
-    let mut fin: Vec<Option<BitSet>> = vec![None; dp.len()];
+    let words = n.div_ceil(64);
+    let mut bounds = vec![0u64; dp.len() * words];
+    for (k, b) in base.iter().enumerate() {
+        bounds[k * words..(k + 1) * words].copy_from_slice(b.words());
+    }
     let mut on_stack = vec![false; piece as usize];
     let mut cell_on_stack = vec![false; n];
+    let mut mights: Vec<u64> = Vec::new();
     for &k in &order {
         let s = &dp[k];
         let mut flow = Flow {
             dp: &dp,
             out: &out,
-            base: &base,
-            fin: &fin,
+            bounds: &bounds,
             on_stack: std::mem::take(&mut on_stack),
             vis: BitSet::new(n),
+            root_might: base[k].words(),
+            done: false,
+            mights: std::mem::take(&mut mights),
+            words,
             eps,
             root_n: s.n,
             root_d: s.d,
             chains: 0,
             budget: settings.max_steps_per_source,
             truncated: 0,
-            convex: graph.convex_cells,
+            no_reentry: graph.convex_cells || !settings.revisit_cells,
             cell_on_stack: std::mem::take(&mut cell_on_stack),
         };
+        if flow.mights.len() < words {
+            flow.mights.resize(words, 0);
+        }
+        flow.mights[..words].copy_from_slice(base[k].words());
         let root = Frame {
             source: s.poly.clone(),
             pass: None,
             n: s.n,
             d: s.d,
-            might: base[k].words(),
+            depth: 0,
+            _p: std::marker::PhantomData,
         };
         flow.on_stack[s.piece as usize] = true;
         flow.cell_on_stack[from[k] as usize] = true;
         flow.cell_on_stack[s.to as usize] = true;
-        flow.flow(s.to, &root);
+        flow.done = flow.root_might.iter().zip(flow.vis.words()).all(|(m, v)| m & !v == 0);
+        if !flow.done {
+            flow.flow(s.to, &root);
+        }
         flow.cell_on_stack[s.to as usize] = false;
         flow.cell_on_stack[from[k] as usize] = false;
         flow.on_stack[s.piece as usize] = false;
+        mights = std::mem::take(&mut flow.mights);
         stats.chains += flow.chains;
         stats.sources_truncated += (flow.truncated > 0) as usize;
         stats.branches_truncated += flow.truncated;
         on_stack = flow.on_stack;
         cell_on_stack = flow.cell_on_stack;
         let vis = flow.vis;
-        fin[k] = Some(vis);
-    }
-    for (k, f) in fin.iter().enumerate() {
-        if let Some(f) = f {
-            sets[from[k] as usize].union_with(f);
-        }
+        bounds[k * words..(k + 1) * words].copy_from_slice(vis.words());
+        sets[from[k] as usize].union_with(&vis);
     }
     stats.flow_seconds = t0.elapsed().as_secs_f64();
     Pvs { sets, stats }

@@ -1,0 +1,438 @@
+//! `portalfind evaluate` and `run --evaluate`: the visibility figures of a partition
+//! ([`crate::visibility`]) — PVS sizes, expected rendered triangles `E_T`, PVS area
+//! fraction, culling ratio, conservativeness by sampling, timings per stage — and, when
+//! asked, a walkthrough ([`crate::visibility::walk`]), written beside a run's files:
+//!
+//! - `visibility.json` ([`Evaluation`]): the figures (the experiment runner's
+//!   `evaluation.json` is another file: the ground-truth evaluation);
+//! - `visibility_cells.csv`: one row per cell;
+//! - with a walkthrough, `walkthrough.csv` (one row per frame), `walkthrough.png` (the
+//!   triangles per frame, like Aliaga & Lastra's figures) and `walkthrough.md` (averages
+//!   and speedups).
+//!
+//! A run directory is re-read without re-deciding anything: the model named in
+//! `result.json` is loaded, its cells rebuilt with the run's subdivision (deterministic),
+//! and the partition replayed from `weight_curve.csv`'s collapses; the cell ids must equal
+//! `result.json`'s, or the evaluation refuses.
+
+use crate::CellId;
+use crate::complex::CellComplex;
+use crate::decimate::{Decimation, Partition, Step};
+use crate::model::Model;
+use crate::output::{OutputError, ResultDoc};
+use crate::pipeline::{CellSettings, PipelineError, Subdivision};
+use crate::visibility::PvsSettings;
+use crate::visibility::cost::{CellCost, PartitionVisibility, VisibilityReport};
+use crate::visibility::sample::{self, CellSample, SampleSettings};
+use crate::visibility::walk::{self, Frame, WalkReport, WalkSettings};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+mod plot;
+
+/// The file names.
+pub const VISIBILITY_FILE: &str = "visibility.json";
+/// Per-cell rows.
+pub const CELLS_FILE: &str = "visibility_cells.csv";
+/// Per-frame rows.
+pub const FRAMES_FILE: &str = "walkthrough.csv";
+/// Per-frame plot.
+pub const PLOT_FILE: &str = "walkthrough.png";
+/// Averages and speedups.
+pub const TABLE_FILE: &str = "walkthrough.md";
+
+/// What to compute.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Settings {
+    /// The PVS.
+    pub pvs: PvsSettings,
+    /// The sampling check (`None`: skipped).
+    pub sampling: Option<SampleSettings>,
+    /// The walkthrough (`None`: skipped).
+    pub walkthrough: Option<WalkSettings>,
+}
+
+/// Errors.
+#[derive(Debug, thiserror::Error)]
+pub enum EvaluateError {
+    /// Reading or writing files.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    /// Loading the model or rebuilding the cells.
+    #[error(transparent)]
+    Pipeline(#[from] PipelineError),
+    /// The run's weight curve cannot be read.
+    #[error("cannot read {}: {message}", path.display())]
+    WeightCurve {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        message: String,
+    },
+    /// The replayed partition is not the run's.
+    #[error(
+        "the partition rebuilt from {} does not match its result.json ({message}); was the model or portalfind changed since the run?",
+        dir.display()
+    )]
+    Mismatch {
+        /// The run directory.
+        dir: PathBuf,
+        /// What differs.
+        message: String,
+    },
+}
+
+/// One timed stage.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StageTime {
+    /// Name.
+    pub stage: String,
+    /// Wall-clock seconds.
+    pub seconds: f64,
+}
+
+/// `visibility.json`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Evaluation {
+    /// Always `"portalfind-visibility"`.
+    pub schema: String,
+    /// 1.
+    pub schema_version: u32,
+    /// `"portalfind X.Y.Z"`.
+    pub generator: String,
+    /// The model's path.
+    pub model: String,
+    /// The run's settings (heuristic, estimator, stop, subdivision), as in result.json.
+    pub run_settings: serde_json::Value,
+    /// What was computed.
+    pub settings: Settings,
+    /// The figures (with the sampling check when run).
+    pub report: VisibilityReport,
+    /// The walkthrough's summary.
+    pub walkthrough: Option<WalkReport>,
+    /// Seconds per stage.
+    pub stages: Vec<StageTime>,
+}
+
+/// One row of `visibility_cells.csv`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CellRow {
+    /// The cell's id (as in result.json).
+    pub id: u32,
+    /// Its figures.
+    #[serde(flatten)]
+    pub cost: CellCost,
+    /// Distinct polygons the sampling hit (0 without sampling).
+    pub polygons_hit: usize,
+    /// Their triangles.
+    pub triangles_hit: u64,
+    /// PVS triangles / sampled triangles (empty when nothing was hit).
+    pub overestimation: Option<f64>,
+}
+
+/// Everything an evaluation produces.
+#[derive(Clone, Debug)]
+pub struct Output {
+    /// The summary.
+    pub evaluation: Evaluation,
+    /// Per cell.
+    pub cells: Vec<CellRow>,
+    /// Per frame (empty without a walkthrough).
+    pub frames: Vec<Frame>,
+}
+
+/// A run re-read from its directory.
+pub struct LoadedRun {
+    /// Its result document.
+    pub doc: ResultDoc,
+    /// The model.
+    pub model: Model,
+    /// The cells, rebuilt.
+    pub cx: CellComplex,
+    /// The final partition, replayed.
+    pub partition: Partition,
+    /// Timed stages of re-reading.
+    pub stages: Vec<StageTime>,
+}
+
+fn stage(name: &str, t0: Instant) -> StageTime {
+    StageTime {
+        stage: name.into(),
+        seconds: t0.elapsed().as_secs_f64(),
+    }
+}
+
+/// Re-reads a run directory (see the module docs). `model` overrides the model path of
+/// result.json (which is as given on the run's command line).
+pub fn load_run(dir: &Path, model: Option<&Path>) -> Result<LoadedRun, EvaluateError> {
+    let doc = crate::output::read_result(dir)?;
+    let path = model.map_or_else(|| PathBuf::from(&doc.model.path), Path::to_path_buf);
+    let t0 = Instant::now();
+    let (model, _) = crate::pipeline::load(&path)?;
+    let mut stages = vec![stage("load model", t0)];
+    let subdivision: Subdivision = doc.settings.subdivision.parse().unwrap_or(Subdivision::Delaunay);
+    let t0 = Instant::now();
+    let cells = crate::pipeline::build_cells(&model, &path, &CellSettings::of(subdivision), &mut |_| {})?;
+    stages.push(stage("rebuild cells", t0));
+    let t0 = Instant::now();
+    let csv_path = dir.join("weight_curve.csv");
+    let steps = read_steps(&csv_path)?;
+    let partition = Decimation::replay(&cells.cx, &steps).map_err(|e| EvaluateError::WeightCurve {
+        path: csv_path.clone(),
+        message: e.to_string(),
+    })?;
+    stages.push(stage("replay collapses", t0));
+    let ids: Vec<u32> = partition.cells.iter().map(|c| c.id.0).collect();
+    let want: Vec<u32> = doc.cells.iter().map(|c| c.id).collect();
+    if ids != want {
+        return Err(EvaluateError::Mismatch {
+            dir: dir.to_path_buf(),
+            message: format!("{} cells rebuilt, {} in result.json", ids.len(), want.len()),
+        });
+    }
+    Ok(LoadedRun {
+        doc,
+        model,
+        cx: cells.cx,
+        partition,
+        stages,
+    })
+}
+
+/// The collapses of a `weight_curve.csv` (only the pairs matter for a replay).
+fn read_steps(path: &Path) -> Result<Vec<Step>, EvaluateError> {
+    let bad = |message: String| EvaluateError::WeightCurve {
+        path: path.to_path_buf(),
+        message,
+    };
+    let mut r = csv::Reader::from_path(path).map_err(|e| bad(e.to_string()))?;
+    let h = r.headers().map_err(|e| bad(e.to_string()))?.clone();
+    let col = |name: &str| {
+        h.iter()
+            .position(|x| x == name)
+            .ok_or_else(|| bad(format!("no column {name}")))
+    };
+    let (ca, cb) = (col("cell_a")?, col("cell_b")?);
+    let mut steps = Vec::new();
+    for (i, rec) in r.records().enumerate() {
+        let rec = rec.map_err(|e| bad(e.to_string()))?;
+        let get = |k: usize| -> Result<u32, EvaluateError> {
+            rec.get(k)
+                .and_then(|s| s.parse().ok())
+                .ok_or_else(|| bad(format!("row {}: not a cell id", i + 2)))
+        };
+        steps.push(Step {
+            a: CellId(get(ca)?),
+            b: CellId(get(cb)?),
+            weight: 0.0,
+            cells_remaining: 0,
+            portal_area: 0.0,
+            projected: [0.0; 2],
+        });
+    }
+    Ok(steps)
+}
+
+/// Evaluates a partition of `cx` (built from `model`). `stages` are earlier timed stages.
+pub fn evaluate_partition(
+    model: &Model,
+    model_path: &str,
+    run_settings: serde_json::Value,
+    cx: &CellComplex,
+    partition: &Partition,
+    settings: &Settings,
+    mut stages: Vec<StageTime>,
+) -> Output {
+    let t0 = Instant::now();
+    let v = PartitionVisibility::compute(model, cx, partition, &settings.pvs);
+    let total = t0.elapsed().as_secs_f64();
+    stages.push(StageTime {
+        stage: "PVS: base visibility".into(),
+        seconds: v.pvs.stats.base_seconds,
+    });
+    stages.push(StageTime {
+        stage: "PVS: portal flow".into(),
+        seconds: v.pvs.stats.flow_seconds,
+    });
+    stages.push(StageTime {
+        stage: "portal graph, polygons per cell, costs".into(),
+        seconds: (total - v.pvs.stats.base_seconds - v.pvs.stats.flow_seconds).max(0.0),
+    });
+    let mut report = v.report.clone();
+    let mut samples: Vec<Option<CellSample>> = vec![None; partition.len()];
+    let pieces = sample::pieces_of_partition(partition);
+    if let Some(ss) = &settings.sampling {
+        let (s, per) = sample::check(model, cx, &pieces, &v.pvs, &v.polygons, &v.cells, ss);
+        stages.push(StageTime {
+            stage: "sampling check".into(),
+            seconds: s.seconds,
+        });
+        report.sampling = Some(s);
+        samples = per.into_iter().map(Some).collect();
+    }
+    let mut walkthrough = None;
+    let mut frames = Vec::new();
+    if let Some(ws) = &settings.walkthrough {
+        let t0 = Instant::now();
+        let scene = walk::Scene {
+            model,
+            cx,
+            graph: &v.graph,
+            polygons: &v.polygons,
+            pieces: &pieces,
+        };
+        let (w, f) = walk::walkthrough(&scene, ws);
+        stages.push(stage("walkthrough", t0));
+        walkthrough = Some(w);
+        frames = f;
+    }
+    let cells = partition
+        .cells
+        .iter()
+        .zip(&v.cells)
+        .zip(&samples)
+        .map(|((mc, c), s)| CellRow {
+            id: mc.id.0,
+            cost: c.clone(),
+            polygons_hit: s.as_ref().map_or(0, |s| s.polygons_hit),
+            triangles_hit: s.as_ref().map_or(0, |s| s.triangles_hit),
+            overestimation: s.as_ref().and_then(|s| s.overestimation),
+        })
+        .collect();
+    Output {
+        evaluation: Evaluation {
+            schema: "portalfind-visibility".into(),
+            schema_version: 1,
+            generator: format!("portalfind {}", env!("CARGO_PKG_VERSION")),
+            model: model_path.into(),
+            run_settings,
+            settings: *settings,
+            report,
+            walkthrough,
+            stages,
+        },
+        cells,
+        frames,
+    }
+}
+
+/// Evaluates the run in `dir` (see [`load_run`]).
+pub fn evaluate_dir(dir: &Path, model: Option<&Path>, settings: &Settings) -> Result<Output, EvaluateError> {
+    let run = load_run(dir, model)?;
+    let rs = serde_json::to_value(&run.doc.settings).unwrap_or(serde_json::Value::Null);
+    Ok(evaluate_partition(
+        &run.model,
+        &run.doc.model.path,
+        rs,
+        &run.cx,
+        &run.partition,
+        settings,
+        run.stages,
+    ))
+}
+
+/// The walkthrough table (markdown): mean and largest triangles per frame, and the
+/// speedup over view-frustum culling, of each method.
+pub fn walkthrough_table(w: &WalkReport) -> String {
+    let ws = w.settings.unwrap_or_default();
+    let names = walk::columns(&ws);
+    let mut s = format!(
+        "{} frames along a path of length {:.1}; {} model triangles; field of view {}° × {:.1}°.\n\n",
+        w.frames,
+        w.path_length,
+        w.total_triangles,
+        ws.fov_deg,
+        2.0 * ((ws.fov_deg.to_radians() / 2.0).tan() * ws.aspect).atan().to_degrees()
+    );
+    s.push_str("| method | mean triangles | max triangles | speedup (triangles) | culling seconds (all frames) |\n");
+    s.push_str("|---|---:|---:|---:|---:|\n");
+    for k in 0..5 {
+        s.push_str(&format!(
+            "| {} | {:.1} | {} | {:.2} | {:.3} |\n",
+            names[k], w.mean[k], w.max[k], w.speedup[k], w.seconds[k]
+        ));
+    }
+    s
+}
+
+/// Writes the evaluation's files into `dir`; returns their paths.
+pub fn write(dir: &Path, out: &Output, title: &str) -> Result<Vec<PathBuf>, EvaluateError> {
+    let mut files = Vec::new();
+    let p = dir.join(VISIBILITY_FILE);
+    crate::output::write_atomic(&p, |tmp| -> Result<(), std::io::Error> {
+        let s = serde_json::to_string_pretty(&out.evaluation).map_err(std::io::Error::other)?;
+        std::fs::write(tmp, s + "\n")
+    })?;
+    files.push(p);
+    let p = dir.join(CELLS_FILE);
+    crate::output::write_atomic(&p, |tmp| -> Result<(), csv::Error> {
+        let mut w = csv::Writer::from_path(tmp)?;
+        w.write_record([
+            "id",
+            "volume",
+            "pvs_cells",
+            "own_triangles",
+            "pvs_triangles",
+            "pvs_area",
+            "polygons_hit",
+            "triangles_hit",
+            "overestimation",
+        ])?;
+        for c in &out.cells {
+            w.write_record([
+                c.id.to_string(),
+                c.cost.volume.to_string(),
+                c.cost.pvs_cells.to_string(),
+                c.cost.own_triangles.to_string(),
+                c.cost.pvs_triangles.to_string(),
+                c.cost.pvs_area.to_string(),
+                c.polygons_hit.to_string(),
+                c.triangles_hit.to_string(),
+                c.overestimation.map_or(String::new(), |x| x.to_string()),
+            ])?;
+        }
+        w.flush()?;
+        Ok(())
+    })?;
+    files.push(p);
+    if let Some(wr) = &out.evaluation.walkthrough {
+        let names = walk::columns(&wr.settings.unwrap_or_default());
+        let p = dir.join(FRAMES_FILE);
+        crate::output::write_atomic(&p, |tmp| -> Result<(), csv::Error> {
+            let mut w = csv::Writer::from_path(tmp)?;
+            let mut head = vec!["frame".to_string(), "x".into(), "y".into(), "z".into(), "cell".into()];
+            head.extend(names.iter().cloned());
+            head.extend(["portals_traversed".into(), "cells_drawn".into(), "quads_k".into()]);
+            w.write_record(&head)?;
+            for f in &out.frames {
+                w.write_record([
+                    f.frame.to_string(),
+                    f.eye[0].to_string(),
+                    f.eye[1].to_string(),
+                    f.eye[2].to_string(),
+                    f.cell.to_string(),
+                    f.frustum.to_string(),
+                    f.portal.to_string(),
+                    f.portal_rect.to_string(),
+                    f.textured_a.to_string(),
+                    f.textured_b.to_string(),
+                    f.portals_traversed.to_string(),
+                    f.cells_drawn.to_string(),
+                    f.quads_a.to_string(),
+                ])?;
+            }
+            w.flush()?;
+            Ok(())
+        })?;
+        files.push(p);
+        let p = dir.join(PLOT_FILE);
+        crate::output::write_atomic(&p, |tmp| plot::frames(tmp, &out.frames, &names, title))?;
+        files.push(p);
+        let p = dir.join(TABLE_FILE);
+        let table = format!("# Walkthrough: {title}\n\n{}", walkthrough_table(wr));
+        crate::output::write_atomic(&p, |tmp| std::fs::write(tmp, table))?;
+        files.push(p);
+    }
+    Ok(files)
+}
