@@ -299,6 +299,8 @@ fn bench_accuracy(
 /// Errors are printed as their context chain (file, line, element, fix), without a
 /// backtrace even when `RUST_BACKTRACE` is set, and exit with status 1.
 fn main() -> std::process::ExitCode {
+    // The pictures' font is compiled in; register it before anything draws.
+    portalfind::output::plot::register_fonts();
     install_interrupt_handler();
     match run(Cli::parse()) {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -14,17 +14,20 @@ mod error;
 mod export;
 mod gltf;
 mod locate;
-mod plot;
+mod notes;
+pub mod plot;
 mod prt;
 mod result_json;
 mod set;
-mod svg;
+pub mod svg;
 mod weight_csv;
 
 pub use error::OutputError;
 pub use export::{ExportContext, Exporter, exporters, opt_in_formats, write_atomic};
 pub use locate::{Locator, read_points};
+pub use notes::Notes;
 pub use prt::{MAX_POINTS_ON_WINDING, MAX_PORTALS_ON_LEAF, PrtFile, PrtLimits, PrtPortal, parse_prt, prt_file};
+pub use result_json::strip_timings_json;
 pub use set::{
     FileEntry, MANIFEST_FILE, MANIFEST_SCHEMA, MANIFEST_VERSION, Manifest, SetOptions, Written, check_output_dir,
     check_run, interrupt, read_manifest, remove_run, verify_file, write_run, write_run_with,
@@ -59,7 +62,9 @@ pub struct ResultDoc {
     pub model: ModelInfo,
     /// Settings of the run.
     pub settings: SettingsDoc,
-    /// Stage timings in seconds, in order.
+    /// Stage timings in seconds, in order (absent from the experiments' committed files,
+    /// which leave machine-dependent figures out: [`SetOptions::strip_timings`]).
+    #[serde(default)]
     pub stages: Vec<StageTiming>,
     /// Cell-complex statistics ([`ComplexStats`], serialized as is).
     pub complex: serde_json::Value,
