@@ -112,6 +112,10 @@ pub fn run_experiment(def: &Definition, root: &Path, out: &Path) -> Result<Outco
     let dir = out.join(&def.name);
     // Refuse a directory holding foreign files with output names before the work.
     output::check_output_dir(&dir, &set_options())?;
+    output::check_snapshot_counts(&def.snapshots, &def.settings.stop).map_err(|source| RunError::Snapshots {
+        file: def.file.clone(),
+        source,
+    })?;
     let (model, truth) = load_model(def, root)?;
     let stages = vec![("load model".to_string(), t0.elapsed().as_secs_f64())];
     let model_path = PathBuf::from(def.model.to_string());
@@ -260,7 +264,8 @@ pub fn run_all(defs: Vec<Result<Definition, ExperimentError>>, opts: &RunOptions
     let mut outcomes = Vec::new();
     let mut failures = Vec::new();
     let mut order: Vec<(String, PathBuf)> = Vec::new();
-    for d in defs {
+    let total = defs.len();
+    for (k, d) in defs.into_iter().enumerate() {
         let def = match d {
             Ok(d) => d,
             Err(e) => {
@@ -271,6 +276,7 @@ pub fn run_all(defs: Vec<Result<Definition, ExperimentError>>, opts: &RunOptions
             }
         };
         order.push((def.name.clone(), def.file.clone()));
+        log(&format!("[{}/{total}] {}: running ({})", k + 1, def.name, def.model));
         match run_experiment(&def, &opts.root, &opts.out) {
             Ok(o) => {
                 log(&eval::one_line(&o.eval));

@@ -80,6 +80,7 @@ pub fn exporters() -> Vec<Box<dyn Exporter>> {
         Box::new(super::plot::WeightPlot),
         Box::new(super::svg::CellsSvg),
         Box::new(super::svg::Snapshots),
+        Box::new(super::leak_pts::LeakPts),
         Box::new(super::prt::Prt),
         Box::new(super::cells_obj::CellsObj),
         Box::new(super::gltf::Glb),

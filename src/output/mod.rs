@@ -13,6 +13,7 @@ mod dot;
 mod error;
 mod export;
 mod gltf;
+mod leak_pts;
 mod locate;
 mod notes;
 pub mod plot;
@@ -24,6 +25,7 @@ mod weight_csv;
 
 pub use error::OutputError;
 pub use export::{ExportContext, Exporter, exporters, opt_in_formats, write_atomic};
+pub use leak_pts::LEAK_FILE;
 pub use locate::{Locator, read_points};
 pub use notes::Notes;
 pub use prt::{MAX_POINTS_ON_WINDING, MAX_PORTALS_ON_LEAF, PrtFile, PrtLimits, PrtPortal, parse_prt, prt_file};
@@ -325,6 +327,31 @@ pub fn snapshot(
         file: format!("cells_{n}.svg"),
     };
     Ok((snap, doc))
+}
+
+/// Checks snapshot counts before a run: a count of 0, a repeated count or one below the
+/// `cells:N` stop rule's N can never be drawn, so the run is refused before any work (counts
+/// above the model's active cells are found after the run, [`snapshot`]).
+pub fn check_snapshot_counts(counts: &[usize], stop: &crate::decimate::StopRule) -> Result<(), OutputError> {
+    for (i, &n) in counts.iter().enumerate() {
+        let reason = if n == 0 {
+            Some("a run never has 0 cells (it ends with one cell per connected region)".to_string())
+        } else if counts[..i].contains(&n) {
+            Some("the count is given twice".to_string())
+        } else if let crate::decimate::StopRule::Cells(k) = *stop
+            && n < k
+        {
+            Some(format!(
+                "the stop rule cells:{k} ends the run at {k} cells; choose counts of at least {k} or lower the stop rule"
+            ))
+        } else {
+            None
+        };
+        if let Some(reason) = reason {
+            return Err(OutputError::SnapshotUnreachable { n, reason });
+        }
+    }
+    Ok(())
 }
 
 /// Writes every output of [`exporters`] into `dir` (created if missing) without
