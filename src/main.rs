@@ -186,6 +186,19 @@ enum Cmd {
         #[command(flatten)]
         eval: EvalArgs,
     },
+    /// Re-export a finished `run` directory in other tools' formats: rebuilds the cells
+    /// from the run's model, replays its recorded collapses, checks them against
+    /// result.json and writes the set again with the formats added (see "Exports").
+    Export {
+        /// Output directory of `portalfind run`.
+        dir: PathBuf,
+        /// Formats (comma-separated): prt, obj, gltf, dot.
+        #[arg(long, value_delimiter = ',', value_parser = export_format, required = true)]
+        to: Vec<String>,
+        /// The run's model, if it is no longer at the path recorded in result.json.
+        #[arg(long)]
+        model: Option<PathBuf>,
+    },
     /// Run experiment definitions (the thesis reproduction): every `*.json` of a directory,
     /// or one file. Each experiment writes OUT/NAME/ (result.json, evaluation.json, weight
     /// curve CSV/PNG, cells.svg); a directory run also writes OUT/summary.csv and
@@ -516,6 +529,8 @@ fn bench_fuzz(
 /// Errors are printed as their context chain (file, line, element, fix), without a
 /// backtrace even when `RUST_BACKTRACE` is set, and exit with status 1.
 fn main() -> std::process::ExitCode {
+    // The pictures' font is compiled in; register it before anything draws.
+    portalfind::output::plot::register_fonts();
     install_interrupt_handler();
     match run(Cli::parse()) {
         Ok(()) => std::process::ExitCode::SUCCESS,
@@ -653,6 +668,13 @@ fn run(cli: Cli) -> Result<()> {
             print_evaluation(&o, &out)
         }
         Cmd::Locate { dir, points } => locate(&dir, &points),
+        Cmd::Export { dir, to, model } => {
+            let w = pipeline::reexport(&dir, model.as_deref(), &to)?;
+            for f in &w.files {
+                println!("wrote {}", f.display());
+            }
+            Ok(())
+        }
         Cmd::Experiment { path, out, only } => experiment(&path, out, &only),
     }
 }
@@ -907,7 +929,16 @@ fn complex(
     }
     if validate {
         let t1 = Instant::now();
-        match cx.validate(&m) {
+        eprintln!(
+            "validating {} cells and their patches exactly (skip with --no-validate)...",
+            cx.stats.active_cells
+        );
+        let spin = indicatif::ProgressBar::new_spinner();
+        spin.set_message("validating the complex");
+        spin.enable_steady_tick(std::time::Duration::from_millis(250));
+        let r = cx.validate(&m);
+        spin.finish_and_clear();
+        match r {
             Ok(v) => println!(
                 "validate ok in {:.3} s ({} cells, {} patches, volume error {:.1e})",
                 t1.elapsed().as_secs_f64(),
@@ -1096,6 +1127,7 @@ fn run_decimation(
 ) -> Result<()> {
     use portalfind::decimate::{QueueMode, Settings};
     let t0 = Instant::now();
+    portalfind::output::check_snapshot_counts(snapshot_counts, &stop)?;
     let (m, load_secs) = load_timed(path)?;
     let settings = pipeline::Settings {
         cells: how,
@@ -1151,6 +1183,17 @@ fn run_decimation(
         sealed,
         ..
     } = run;
+    // The full decimation (stop `none`), so the weight curve shows the run past its stop.
+    let full = (dec.settings.stop != portalfind::decimate::StopRule::None).then(|| {
+        let t = Instant::now();
+        let settings = Settings {
+            stop: portalfind::decimate::StopRule::None,
+            ..dec.settings
+        };
+        let f = portalfind::decimate::Decimation::run(&cx, &settings);
+        stages.push(("decimation: full run (weight curve)".into(), t.elapsed().as_secs_f64()));
+        f
+    });
     let t3 = Instant::now();
     // Snapshots are rebuilt before anything is written, so a count the run never passed
     // through fails without leaving files behind.
@@ -1167,6 +1210,10 @@ fn run_decimation(
         &portalfind::output::SetOptions {
             cx: Some(&cx),
             export,
+            notes: portalfind::output::Notes {
+                full_steps: full.as_ref().map(|f| &f.steps[..]),
+                ..Default::default()
+            },
             ..Default::default()
         },
     )?;
@@ -1360,7 +1407,8 @@ fn report_leaks_and_orientation(cx: &portalfind::complex::CellComplex) {
     for (i, l) in cx.leaks.iter().enumerate() {
         eprintln!(
             "warning: leak {i}: the region of {} cells reaches the outside near ({:.3}, {:.3}, {:.3}); \
-             write its path with `portalfind complex MODEL --pointfile FILE`",
+             its path is in OUT/leak.pts after `run`, or write it with \
+             `portalfind complex MODEL --pointfile FILE` (load it in TrenchBroom)",
             l.region_cells, l.hull_point[0], l.hull_point[1], l.hull_point[2]
         );
     }

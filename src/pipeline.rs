@@ -303,6 +303,14 @@ pub enum PipelineError {
     /// The result document cannot be assembled.
     #[error(transparent)]
     Output(#[from] OutputError),
+    /// A finished run directory cannot be re-exported ([`reexport`]).
+    #[error("cannot re-export {}: {why}", dir.display())]
+    Reexport {
+        /// The run directory.
+        dir: std::path::PathBuf,
+        /// Why.
+        why: String,
+    },
 }
 
 /// The cell complex of a model and how it was made ([`build_cells`]).
@@ -484,6 +492,124 @@ pub fn run(
     let (m, secs) = load(path)?;
     let r = run_model(&m, path, settings, vec![("load model".into(), secs)], progress)?;
     Ok((m, r))
+}
+
+/// Re-exports the finished `run` directory `dir` with the opt-in formats `export` (`prt`,
+/// `obj`, `gltf`, `dot`): the cell complex is rebuilt from the model (`model`, or the path
+/// recorded in `result.json`) with the run's subdivision, the recorded collapses
+/// (`weight_curve.csv`) are replayed, and the replayed cells must equal `result.json`'s (ids
+/// and volumes) — otherwise the model changed since the run and nothing is written. The set
+/// is then written again as one (the same files, byte for byte, plus the new formats;
+/// snapshots listed in the manifest are redrawn). Experiment directories are refused (their
+/// pictures need the experiment's ground truth and transforms).
+pub fn reexport(dir: &Path, model: Option<&Path>, export: &[String]) -> Result<crate::output::Written, PipelineError> {
+    use crate::decimate::{Step, StopRule};
+    let fail = |why: String| PipelineError::Reexport {
+        dir: dir.to_path_buf(),
+        why,
+    };
+    let doc = crate::output::read_result(dir)?;
+    let manifest = crate::output::read_manifest(dir)?;
+    if manifest.as_ref().is_some_and(|m| !m.later.is_empty()) {
+        return Err(fail(
+            "it is an experiment's results directory; add the formats to a `portalfind run` of its model instead"
+                .into(),
+        ));
+    }
+    let path = model.map_or_else(|| std::path::PathBuf::from(&doc.model.path), Path::to_path_buf);
+    let (m, _) = load(&path)?;
+    let mut cs = CellSettings::of(if doc.settings.subdivision == "bsp" {
+        Subdivision::Bsp
+    } else {
+        Subdivision::Delaunay
+    });
+    if let Some(k) = doc.subdivision_stats.get("max_candidates").and_then(|v| v.as_u64()) {
+        cs.bsp.max_candidates = k as usize;
+    }
+    let cells = build_cells(&m, &path, &cs, &mut |_| {})?;
+    let cx = &cells.cx;
+    // The recorded collapses.
+    let csv_path = dir.join("weight_curve.csv");
+    let bad_csv = |e: String| fail(format!("{}: {e}", csv_path.display()));
+    let mut rd = csv::Reader::from_path(&csv_path).map_err(|e| bad_csv(e.to_string()))?;
+    let mut steps = Vec::new();
+    for rec in rd.records() {
+        let r = rec.map_err(|e| bad_csv(e.to_string()))?;
+        let f = |i: usize| -> Result<f64, PipelineError> {
+            r.get(i)
+                .and_then(|x| x.parse::<f64>().ok())
+                .ok_or_else(|| bad_csv(format!("bad column {i} in row {r:?}")))
+        };
+        steps.push(Step {
+            a: crate::ids::CellId(f(3)? as u32),
+            b: crate::ids::CellId(f(4)? as u32),
+            weight: f(1)?,
+            cells_remaining: f(2)? as usize,
+            portal_area: f(5)?,
+            projected: [f(6)?, f(7)?],
+        });
+    }
+    let partition = Decimation::replay(cx, &steps).map_err(|e| {
+        fail(format!(
+            "the recorded collapses do not replay on {}: {e}",
+            path.display()
+        ))
+    })?;
+    let same = partition.cells.len() == doc.cells.len()
+        && partition
+            .cells
+            .iter()
+            .zip(&doc.cells)
+            .all(|(a, b)| a.id.0 == b.id && (a.volume - b.volume).abs() <= 1e-9 * b.volume.abs());
+    if !same {
+        return Err(fail(format!(
+            "the model {} no longer gives this run's cells (changed since the run? give the run's model with --model)",
+            path.display()
+        )));
+    }
+    let stop: StopRule = doc.settings.stop.parse().map_err(|e| fail(format!("stop rule: {e}")))?;
+    let settings = crate::decimate::Settings {
+        heuristic: doc.settings.heuristic,
+        estimator: doc.settings.estimator,
+        stop,
+        queue: doc.settings.queue,
+    };
+    let dec = Decimation {
+        settings,
+        steps,
+        stop: doc.stop_reason,
+        stats: doc.decimation.clone(),
+        partition,
+    };
+    let counts: Vec<usize> = manifest
+        .iter()
+        .flat_map(|m| m.files.iter())
+        .filter_map(|f| f.name.strip_prefix("cells_")?.strip_suffix(".svg")?.parse().ok())
+        .collect();
+    let snapshots = counts
+        .iter()
+        .map(|&n| crate::output::snapshot(&m, &path, cx, &dec, n))
+        .collect::<Result<Vec<_>, _>>()?;
+    let full = (stop != StopRule::None).then(|| {
+        Decimation::run(
+            cx,
+            &crate::decimate::Settings {
+                stop: StopRule::None,
+                ..settings
+            },
+        )
+    });
+    let opts = crate::output::SetOptions {
+        cx: Some(cx),
+        export,
+        notes: crate::output::Notes {
+            full_steps: full.as_ref().map(|f| &f.steps[..]),
+            ..Default::default()
+        },
+        strip_timings: doc.stages.is_empty(),
+        ..Default::default()
+    };
+    Ok(crate::output::write_run(dir, &m, &doc, &dec, &snapshots, &opts)?)
 }
 
 #[cfg(test)]

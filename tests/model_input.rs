@@ -561,3 +561,44 @@ fn error_coordinates_out_of_range() {
     assert!(from_soup("t", scaled(1e6), tet.clone()).is_ok());
     assert!(from_soup("t", scaled(1e-6), tet).is_ok());
 }
+
+/// A directory given as MODEL names itself and the models in it, not "unknown extension".
+#[test]
+fn a_directory_as_model_says_so_and_lists_its_models() {
+    let d = std::env::temp_dir().join(format!("portalfind-dir-model-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(d.join("sub.obj")).unwrap();
+    std::fs::write(d.join("b.obj"), "").unwrap();
+    std::fs::write(d.join("a.mesh"), "").unwrap();
+    std::fs::write(d.join("notes.txt"), "").unwrap();
+    let e = portalfind::model::load_model(&d).unwrap_err().to_string();
+    assert!(e.contains("is a directory, not a model file"), "{e}");
+    assert!(
+        e.contains("such as a.mesh, b.obj, sub.obj") && !e.contains("notes.txt"),
+        "{e}"
+    );
+    assert!(!e.contains("unknown model file extension"), "{e}");
+    // A directory named like a model is a directory too.
+    let e = portalfind::model::load_model(&d.join("sub.obj"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("is a directory") && e.contains("it holds none"), "{e}");
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+/// A Medit/TetGen `.mesh` file gets a hint that it is another format.
+#[test]
+fn a_medit_mesh_gets_a_hint_that_it_is_another_format() {
+    let text =
+        "MeshVersionFormatted 1\nDimension 3\nVertices\n3\n0 0 0 1\n1 0 0 1\n0 1 0 1\nTriangles\n1\n1 2 3 1\nEnd\n";
+    let e = portalfind::model::parse_mesh_str("tet.mesh", text)
+        .unwrap_err()
+        .to_string();
+    assert!(e.starts_with("tet.mesh:1: this is a Medit/TetGen `.mesh` file"), "{e}");
+    assert!(e.contains("meshio convert"), "{e}");
+    // Comment lines before the keyword do not hide it.
+    let e = portalfind::model::parse_mesh_str("t.mesh", &format!("# exported\n{text}"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("Medit/TetGen"), "{e}");
+}

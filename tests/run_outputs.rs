@@ -213,7 +213,7 @@ fn library_writes_all_outputs_matching_the_schema() {
     let doc = output::result_doc(&m, Path::new("two_rooms.obj"), &cx, &d, &stages).unwrap();
     let dir = tmp_dir("lib");
     let files = output::write_outputs(&dir, &m, &doc, &d).unwrap();
-    assert_eq!(files.len(), 4);
+    assert_eq!(files.len(), 5);
     assert!(no_temp_files(&dir));
 
     let json: Value = serde_json::from_str(&std::fs::read_to_string(dir.join("result.json")).unwrap()).unwrap();
@@ -239,8 +239,17 @@ fn library_writes_all_outputs_matching_the_schema() {
     assert!(png.len() > 1000);
     let svg = std::fs::read_to_string(dir.join("cells.svg")).unwrap();
     assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
-    assert_eq!(svg.matches("<title>cells").count(), 1, "one portal drawn");
-    assert!(svg.contains("stroke=\"#888\""), "walls drawn");
+    assert_eq!(
+        svg.matches("<title>portal between cells").count(),
+        1,
+        "one portal drawn"
+    );
+    assert_eq!(
+        svg.matches("<title>cell ").count(),
+        doc.cells.len(),
+        "every cell filled"
+    );
+    assert!(svg.contains("stroke=\"#444\""), "walls drawn");
 
     // Read back, and locate points.
     let back = output::read_result(&dir).unwrap();
@@ -329,7 +338,7 @@ fn snapshots_replay_intermediate_states_and_refuse_counts_never_reached() {
 
     let dir = tmp_dir("snap");
     let files = output::write_outputs_with_snapshots(&dir, &m, &doc, &d, &snaps).unwrap();
-    assert_eq!(files.len(), 4 + 3);
+    assert_eq!(files.len(), 5 + 3);
     for (s, _) in &snaps {
         let svg = std::fs::read_to_string(dir.join(&s.file)).unwrap();
         assert!(svg.starts_with("<svg") && svg.contains(&format!("snapshot at {} cells", s.cells)));
@@ -625,7 +634,7 @@ fn disk_full_while_writing_keeps_the_previous_set() {
     let chain = format!("{err}: {}", std::error::Error::source(&err).unwrap());
     assert!(chain.contains("big.bin") && chain.contains("No space left"), "{chain}");
     assert_eq!(contents(&dir), before);
-    assert_eq!(output::check_run(&dir).unwrap().files.len(), 4);
+    assert_eq!(output::check_run(&dir).unwrap().files.len(), 5);
     assert_eq!(output::read_result(&dir).unwrap().cells.len(), 2);
     assert!(hidden(&base).is_empty(), "{:?}", hidden(&base));
     // Into a new directory: nothing at all is left, not even the directory.
@@ -847,7 +856,7 @@ fn stale_outputs_are_replaced_as_a_set_and_foreign_files_are_left_alone() {
     );
     assert!(!base.join("out").join(&snap).exists(), "stale snapshot left");
     assert_eq!(std::fs::read_to_string(base.join("out/notes.txt")).unwrap(), "mine");
-    assert_eq!(output::check_run(&base.join("out")).unwrap().files.len(), 4);
+    assert_eq!(output::check_run(&base.join("out")).unwrap().files.len(), 5);
 
     std::fs::write(base.join("out/cells_7.svg"), "<svg/>").unwrap();
     let o = pf(&["run", "m.obj", "--stop", "cells:2", "--out", "out"], &base, &[]);
@@ -855,5 +864,119 @@ fn stale_outputs_are_replaced_as_a_set_and_foreign_files_are_left_alone() {
     assert!(text(&o).contains("already holds cells_7.svg"), "{}", text(&o));
     assert!(base.join("out/cells_7.svg").is_file());
     output::check_run(&base.join("out")).unwrap();
+    std::fs::remove_dir_all(&base).unwrap();
+}
+
+/// `run` writes the leak pointfile into its output set (`leak.pts`, as `complex --pointfile`
+/// writes it); a later run of a closed model into the same directory removes it with the
+/// rest of the previous set.
+#[test]
+fn run_writes_the_leak_pointfile_into_its_set() {
+    let base = tmp_dir("run-leak");
+    let mut s = scenes::two_rooms();
+    s.polygons.remove(0);
+    write_obj(&s, &base.join("open.obj"));
+    two_rooms_obj(&base, "closed.obj", 0.0);
+    let o = pf(&["run", "open.obj", "--stop", "none", "--out", "out"], &base, &[]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(text(&o).contains("out/leak.pts"), "{}", text(&o));
+    let pts = std::fs::read_to_string(base.join("out/leak.pts")).unwrap();
+    let o = pf(
+        &["complex", "open.obj", "--no-validate", "--pointfile", "c.pts"],
+        &base,
+        &[],
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    assert_eq!(pts, std::fs::read_to_string(base.join("c.pts")).unwrap());
+    let manifest = std::fs::read_to_string(base.join("out/manifest.json")).unwrap();
+    assert!(manifest.contains("\"leak.pts\""));
+    let o = pf(&["run", "closed.obj", "--stop", "none", "--out", "out"], &base, &[]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(!base.join("out/leak.pts").exists(), "stale pointfile left");
+    std::fs::remove_dir_all(&base).unwrap();
+}
+
+/// Rough edges a new user hit: snapshot counts that can never be drawn are refused before
+/// the model is loaded; a directory or a Medit `.mesh` as MODEL gets a helpful message.
+#[test]
+fn run_refuses_bad_snapshots_and_explains_bad_models_before_any_work() {
+    let base = tmp_dir("rough-edges");
+    two_rooms_obj(&base, "m.obj", 0.0);
+    for (snaps, want) in [
+        ("1", "the stop rule cells:2 ends the run at 2 cells"),
+        ("0", "a run never has 0 cells"),
+        ("5,5", "the count is given twice"),
+    ] {
+        let o = pf(
+            &[
+                "run",
+                "m.obj",
+                "--stop",
+                "cells:2",
+                "--snapshots",
+                snaps,
+                "--out",
+                "out",
+            ],
+            &base,
+            &[],
+        );
+        assert!(!o.status.success());
+        let t = text(&o);
+        assert!(t.contains(want) && t.contains("nothing was computed"), "{t}");
+        assert!(!t.contains("loaded"), "refused before loading: {t}");
+    }
+    assert!(!base.join("out").exists());
+    std::fs::create_dir_all(base.join("models")).unwrap();
+    std::fs::copy(base.join("m.obj"), base.join("models/m.obj")).unwrap();
+    let o = pf(&["info", "models"], &base, &[]);
+    assert!(!o.status.success());
+    assert!(text(&o).contains("is a directory, not a model file") && text(&o).contains("such as m.obj"));
+    std::fs::write(
+        base.join("tet.mesh"),
+        "MeshVersionFormatted 2\nDimension 3\nVertices\n0\nEnd\n",
+    )
+    .unwrap();
+    let o = pf(&["info", "tet.mesh"], &base, &[]);
+    assert!(!o.status.success());
+    assert!(text(&o).contains("Medit/TetGen"), "{}", text(&o));
+    std::fs::remove_dir_all(&base).unwrap();
+}
+
+/// `portalfind export DIR --to ...` re-exports a finished run: the set is written again with
+/// the formats added, every earlier file byte for byte the same (snapshots too); a changed
+/// model is refused and nothing is written.
+#[test]
+fn export_adds_formats_to_a_finished_run() {
+    let base = tmp_dir("reexport");
+    two_rooms_obj(&base, "m.obj", 0.0);
+    let o = pf(
+        &["run", "m.obj", "--stop", "cells:2", "--snapshots", "4", "--out", "out"],
+        &base,
+        &[],
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    let before = contents(&base.join("out"));
+    let o = pf(&["export", "out", "--to", "prt,dot"], &base, &[]);
+    assert!(o.status.success(), "{}", text(&o));
+    let after = contents(&base.join("out"));
+    for (name, bytes) in &before {
+        if name != "manifest.json" {
+            assert!(after.get(name) == Some(bytes), "{name} changed");
+        }
+    }
+    assert!(after.contains_key("cells.prt") && after.contains_key("portals.dot"));
+    let manifest = String::from_utf8(after["manifest.json"].clone()).unwrap();
+    assert!(manifest.contains("\"cells.prt\"") && manifest.contains("\"cells_4.svg\""));
+    // A different model at the recorded path: refused, nothing written.
+    let mut s = scenes::two_rooms();
+    for v in &mut s.vertices {
+        v[0] *= 1.1;
+    }
+    write_obj(&s, &base.join("m.obj"));
+    let o = pf(&["export", "out", "--to", "obj"], &base, &[]);
+    assert!(!o.status.success());
+    assert!(text(&o).contains("no longer gives this run's cells"), "{}", text(&o));
+    assert_eq!(contents(&base.join("out")), after);
     std::fs::remove_dir_all(&base).unwrap();
 }

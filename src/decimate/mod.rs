@@ -239,9 +239,11 @@ pub struct DecimationStats {
     pub queue: QueueStats,
     /// Largest per-cell estimator state (3D hull vertices; boundary faces for `union`).
     pub max_shape_vertices: usize,
-    /// Seconds spent on initial weights.
+    /// Seconds spent on initial weights (absent from files without timings).
+    #[serde(default)]
     pub init_seconds: f64,
-    /// Seconds spent collapsing.
+    /// Seconds spent collapsing (absent from files without timings).
+    #[serde(default)]
     pub collapse_seconds: f64,
 }
 

@@ -11,7 +11,7 @@ fn err<E: std::fmt::Debug>(e: E) -> std::io::Error {
 
 /// Draws the per-frame series into `path` (PNG, 1200 × 600).
 pub fn frames(path: &Path, frames: &[Frame], names: &[String; 5], title: &str) -> Result<(), std::io::Error> {
-    let text = crate::output::font_available();
+    let text = crate::output::register_fonts();
     let root = BitMapBackend::new(path, (1200, 600)).into_drawing_area();
     root.fill(&WHITE).map_err(err)?;
     let series: [Vec<(f64, f64)>; 5] = std::array::from_fn(|k| {

@@ -7,6 +7,7 @@ use super::definition::{CompareTo, Definition, ModelSource, PortalSet};
 use super::error::{ExperimentError, RunError, chain};
 use super::transform::apply_all;
 use super::{eval, report};
+use crate::decimate::{Decimation, StopRule};
 use crate::generate::thesis::{self as thesis_models, GroundTruth};
 use crate::model::Model;
 use crate::output;
@@ -16,6 +17,9 @@ use std::time::Instant;
 
 /// The evaluation's file name in an experiment's results directory.
 pub const EVALUATION_FILE: &str = "evaluation.json";
+/// The file in the results directory that holds the run's timings (machine-dependent, so
+/// kept out of every committed file; `.gitignore` lists it).
+pub const TIMINGS_FILE: &str = "timings.json";
 
 /// The model and ground truth of a definition, transformed. `root` is the directory that
 /// relative paths are resolved against.
@@ -108,6 +112,10 @@ pub fn run_experiment(def: &Definition, root: &Path, out: &Path) -> Result<Outco
     let dir = out.join(&def.name);
     // Refuse a directory holding foreign files with output names before the work.
     output::check_output_dir(&dir, &set_options())?;
+    output::check_snapshot_counts(&def.snapshots, &def.settings.stop).map_err(|source| RunError::Snapshots {
+        file: def.file.clone(),
+        source,
+    })?;
     let (model, truth) = load_model(def, root)?;
     let stages = vec![("load model".to_string(), t0.elapsed().as_secs_f64())];
     let model_path = PathBuf::from(def.model.to_string());
@@ -116,7 +124,21 @@ pub fn run_experiment(def: &Definition, root: &Path, out: &Path) -> Result<Outco
         decimation: def.settings,
     };
     let mut p = pipeline::run_model(&model, &model_path, &settings, stages, &mut |_| {})?;
-    let t1 = Instant::now();
+    // The full decimation (stop `none`): the weight curve is drawn past the stop, and the
+    // evaluation finds the first room-joining collapse in it.
+    let full = (p.dec.settings.stop != StopRule::None).then(|| {
+        let t = Instant::now();
+        let settings = crate::decimate::Settings {
+            stop: StopRule::None,
+            ..p.dec.settings
+        };
+        let full = Decimation::run(&p.cx, &settings);
+        p.stages.push((
+            "decimation: full run (weight curve, weight jump)".into(),
+            t.elapsed().as_secs_f64(),
+        ));
+        full
+    });
     let snapshots = def
         .snapshots
         .iter()
@@ -126,10 +148,25 @@ pub fn run_experiment(def: &Definition, root: &Path, out: &Path) -> Result<Outco
             file: def.file.clone(),
             source,
         })?;
+    let mut ev = eval::evaluate(def, &model, truth.as_ref(), &mut p, full.as_ref(), t0);
+    let t1 = Instant::now();
+    let notes = output::Notes {
+        full_steps: full.as_ref().map(|f| &f.steps[..]),
+        first_join: ev.truth.as_ref().and_then(|t| t.weight_jump.as_ref()).map(|j| j.step),
+        truth: truth.as_ref(),
+    };
     // One set, swapped in whole; `evaluation.json` (written by `run_all`) belongs to it.
-    output::write_run(&dir, &model, &p.doc, &p.dec, &snapshots, &set_options())?;
-    p.stages.push(("write outputs".into(), t1.elapsed().as_secs_f64()));
-    let mut ev = eval::evaluate(def, &model, truth.as_ref(), &mut p, t0);
+    // Timings stay out of the committed files (they go to `timings.json`).
+    let opts = output::SetOptions {
+        notes,
+        strip_timings: true,
+        ..set_options()
+    };
+    output::write_run(&dir, &model, &p.doc, &p.dec, &snapshots, &opts)?;
+    ev.timings
+        .stages
+        .push(("write outputs".into(), t1.elapsed().as_secs_f64()));
+    ev.timings.total_seconds = t0.elapsed().as_secs_f64();
     ev.snapshots = snapshots.into_iter().map(|(s, _)| s).collect();
     let portals = eval::portal_summaries(&p.doc);
     let separating = eval::separating_summaries(&ev);
@@ -227,7 +264,8 @@ pub fn run_all(defs: Vec<Result<Definition, ExperimentError>>, opts: &RunOptions
     let mut outcomes = Vec::new();
     let mut failures = Vec::new();
     let mut order: Vec<(String, PathBuf)> = Vec::new();
-    for d in defs {
+    let total = defs.len();
+    for (k, d) in defs.into_iter().enumerate() {
         let def = match d {
             Ok(d) => d,
             Err(e) => {
@@ -238,6 +276,7 @@ pub fn run_all(defs: Vec<Result<Definition, ExperimentError>>, opts: &RunOptions
             }
         };
         order.push((def.name.clone(), def.file.clone()));
+        log(&format!("[{}/{total}] {}: running ({})", k + 1, def.name, def.model));
         match run_experiment(&def, &opts.root, &opts.out) {
             Ok(o) => {
                 log(&eval::one_line(&o.eval));
@@ -334,9 +373,13 @@ pub fn run_all(defs: Vec<Result<Definition, ExperimentError>>, opts: &RunOptions
         seconds: 0.0,
         files: Vec::new(),
     };
+    match write_timings(&report, &opts.out, t0) {
+        Ok(p) => report.files.push(p),
+        Err(e) => log(&format!("warning: {}", chain(&e))),
+    }
     if opts.write_summary {
-        match report::write_summary(&report, &order, opts, t0) {
-            Ok(files) => report.files = files,
+        match report::write_summary(&report, &order, opts) {
+            Ok(files) => report.files.extend(files),
             Err(e) => {
                 let e = ExperimentError::Failed {
                     file: opts.out.clone(),
@@ -350,4 +393,36 @@ pub fn run_all(defs: Vec<Result<Definition, ExperimentError>>, opts: &RunOptions
     }
     report.seconds = t0.elapsed().as_secs_f64();
     report
+}
+
+/// Writes `out/timings.json`: each finished experiment's stage timings and total, and the
+/// run's wall time so far.
+fn write_timings(report: &Report, out: &Path, t0: Instant) -> Result<PathBuf, RunError> {
+    let experiments: Vec<serde_json::Value> = report
+        .outcomes
+        .iter()
+        .map(|o| {
+            serde_json::json!({
+                "experiment": o.def.name,
+                "total_seconds": o.eval.timings.total_seconds,
+                "stages": o.eval.timings.stages,
+            })
+        })
+        .collect();
+    let doc = serde_json::json!({
+        "generator": format!("portalfind {}", env!("CARGO_PKG_VERSION")),
+        "wall_seconds": t0.elapsed().as_secs_f64(),
+        "experiments": experiments,
+    });
+    std::fs::create_dir_all(out).map_err(|source| RunError::CreateDir {
+        dir: out.to_path_buf(),
+        source,
+    })?;
+    let path = out.join(TIMINGS_FILE);
+    let text = serde_json::to_string_pretty(&doc).map_err(RunError::SerializeEvaluation)?;
+    crate::model::write::write_atomic(&path, text.as_bytes()).map_err(|source| RunError::WriteFile {
+        path: path.clone(),
+        source,
+    })?;
+    Ok(path)
 }

@@ -34,6 +34,26 @@ pub enum ModelError {
     )]
     UnknownExtension { path: PathBuf, ext: String },
 
+    /// The path is a directory.
+    #[error(
+        "`{}` is a directory, not a model file; give one model file (.obj or .mesh){}",
+        path.display(),
+        if models.is_empty() { String::from(": it holds none") } else { format!(", such as {}", models.join(", ")) }
+    )]
+    IsDirectory {
+        path: PathBuf,
+        /// Up to five model files in it.
+        models: Vec<String>,
+    },
+
+    /// A `.mesh` file of another format (Medit/INRIA, as TetGen, Gmsh and meshio write it).
+    #[error(
+        "{file}:{line}: this is a Medit/TetGen `.mesh` file (`{found}`), not portalfind's simple \
+         `.mesh` (a header `<vertex_count> <polygon_count>`, then vertex and polygon lines; see \
+         the README); convert its surface triangles to OBJ, e.g. `meshio convert in.mesh out.obj`"
+    )]
+    OtherMeshFormat { file: String, line: usize, found: String },
+
     /// A line does not have the expected form.
     #[error(
         "{file}:{line}: malformed {element}: expected {expected}, found `{found}`; fix or remove \

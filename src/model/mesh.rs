@@ -33,6 +33,17 @@ pub(crate) fn parse_mesh(file: &str, text: &str) -> Result<Soup, ModelError> {
     };
     let header_expected = "`<vertex_count> <polygon_count>`: two non-negative integers";
     let toks: Vec<&str> = content.split_whitespace().collect();
+    // Medit's keywords (TetGen, Gmsh and meshio write this format as `.mesh` too).
+    if toks
+        .first()
+        .is_some_and(|t| ["MeshVersionFormatted", "MeshVersion", "Dimension", "Vertices"].contains(t))
+    {
+        return Err(ModelError::OtherMeshFormat {
+            file: file.to_string(),
+            line: header_line,
+            found: excerpt(raw),
+        });
+    }
     let (nv, np) = match toks.as_slice() {
         [a, b] => match (a.parse::<usize>(), b.parse::<usize>()) {
             (Ok(a), Ok(b)) => (a, b),

@@ -168,6 +168,25 @@ impl Model {
 /// Loads a model file, dispatching on its extension (`.obj` or `.mesh`, case-insensitive), and
 /// cleans it (see the module documentation).
 pub fn load_model(path: &Path) -> Result<Model, ModelError> {
+    if path.is_dir() {
+        let mut models: Vec<String> = std::fs::read_dir(path)
+            .map(|rd| {
+                rd.filter_map(|e| e.ok())
+                    .map(|e| e.file_name().to_string_lossy().into_owned())
+                    .filter(|n| {
+                        let l = n.to_ascii_lowercase();
+                        l.ends_with(".obj") || l.ends_with(".mesh")
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
+        models.sort();
+        models.truncate(5);
+        return Err(ModelError::IsDirectory {
+            path: path.to_path_buf(),
+            models,
+        });
+    }
     let ext = path
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())

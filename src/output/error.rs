@@ -66,6 +66,15 @@ pub enum OutputError {
         /// Cells at its end.
         last: usize,
     },
+    /// A snapshot count that the run cannot reach whatever the model (checked before the
+    /// run: [`super::check_snapshot_counts`]).
+    #[error("snapshot at {n} cells: {reason}; nothing was computed")]
+    SnapshotUnreachable {
+        /// The count asked for.
+        n: usize,
+        /// Why.
+        reason: String,
+    },
     /// The recorded steps do not replay.
     #[error("replaying the recorded steps")]
     Replay(#[source] crate::decimate::ReplayError),

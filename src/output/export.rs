@@ -25,6 +25,10 @@ pub struct ExportContext<'a> {
     pub cx: Option<&'a CellComplex>,
     /// The opt-in formats requested ([`Exporter::opt_in`] names, e.g. `run --export prt,obj`).
     pub export: &'a [String],
+    /// Annotations for the pictures ([`super::Notes`]).
+    pub notes: super::Notes<'a>,
+    /// Leave timings out of `result.json` ([`super::SetOptions::strip_timings`]).
+    pub strip_timings: bool,
 }
 
 impl ExportContext<'_> {
@@ -73,9 +77,10 @@ pub fn exporters() -> Vec<Box<dyn Exporter>> {
     vec![
         Box::new(super::result_json::ResultJson),
         Box::new(super::weight_csv::WeightCsv),
-        Box::new(super::plot::WeightPng),
+        Box::new(super::plot::WeightPlot),
         Box::new(super::svg::CellsSvg),
         Box::new(super::svg::Snapshots),
+        Box::new(super::leak_pts::LeakPts),
         Box::new(super::prt::Prt),
         Box::new(super::cells_obj::CellsObj),
         Box::new(super::gltf::Glb),

@@ -13,19 +13,24 @@ mod dot;
 mod error;
 mod export;
 mod gltf;
+mod leak_pts;
 mod locate;
-mod plot;
+mod notes;
+pub mod plot;
 mod prt;
 mod result_json;
 mod set;
-mod svg;
+pub mod svg;
 mod weight_csv;
 
 pub use error::OutputError;
 pub use export::{ExportContext, Exporter, exporters, opt_in_formats, write_atomic};
+pub use leak_pts::LEAK_FILE;
 pub use locate::{Locator, read_points};
-pub use plot::font_available;
+pub use notes::Notes;
+pub use plot::register_fonts;
 pub use prt::{MAX_POINTS_ON_WINDING, MAX_PORTALS_ON_LEAF, PrtFile, PrtLimits, PrtPortal, parse_prt, prt_file};
+pub use result_json::strip_timings_json;
 pub use set::{
     FileEntry, MANIFEST_FILE, MANIFEST_SCHEMA, MANIFEST_VERSION, Manifest, SetOptions, Written, check_output_dir,
     check_run, interrupt, read_manifest, remove_run, verify_file, write_run, write_run_with,
@@ -60,7 +65,9 @@ pub struct ResultDoc {
     pub model: ModelInfo,
     /// Settings of the run.
     pub settings: SettingsDoc,
-    /// Stage timings in seconds, in order.
+    /// Stage timings in seconds, in order (absent from the experiments' committed files,
+    /// which leave machine-dependent figures out: [`SetOptions::strip_timings`]).
+    #[serde(default)]
     pub stages: Vec<StageTiming>,
     /// Cell-complex statistics ([`ComplexStats`], serialized as is).
     pub complex: serde_json::Value,
@@ -325,6 +332,31 @@ pub fn snapshot(
         file: format!("cells_{n}.svg"),
     };
     Ok((snap, doc))
+}
+
+/// Checks snapshot counts before a run: a count of 0, a repeated count or one below the
+/// `cells:N` stop rule's N can never be drawn, so the run is refused before any work (counts
+/// above the model's active cells are found after the run, [`snapshot`]).
+pub fn check_snapshot_counts(counts: &[usize], stop: &crate::decimate::StopRule) -> Result<(), OutputError> {
+    for (i, &n) in counts.iter().enumerate() {
+        let reason = if n == 0 {
+            Some("a run never has 0 cells (it ends with one cell per connected region)".to_string())
+        } else if counts[..i].contains(&n) {
+            Some("the count is given twice".to_string())
+        } else if let crate::decimate::StopRule::Cells(k) = *stop
+            && n < k
+        {
+            Some(format!(
+                "the stop rule cells:{k} ends the run at {k} cells; choose counts of at least {k} or lower the stop rule"
+            ))
+        } else {
+            None
+        };
+        if let Some(reason) = reason {
+            return Err(OutputError::SnapshotUnreachable { n, reason });
+        }
+    }
+    Ok(())
 }
 
 /// Writes every output of [`exporters`] into `dir` (created if missing) without

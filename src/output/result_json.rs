@@ -3,6 +3,22 @@
 use super::{ExportContext, Exporter, OutputError, RESULT_FILE, write_atomic};
 use std::path::PathBuf;
 
+/// Removes machine-dependent figures from a JSON document in place: every object member
+/// named `stages` or `timings`, or whose name ends in `seconds`, at any depth. What
+/// `result.json` and `evaluation.json` hold without them reproduces bit for bit.
+pub fn strip_timings_json(v: &mut serde_json::Value) {
+    match v {
+        serde_json::Value::Object(m) => {
+            m.retain(|k, _| k != "stages" && k != "timings" && !k.ends_with("seconds"));
+            for x in m.values_mut() {
+                strip_timings_json(x);
+            }
+        }
+        serde_json::Value::Array(a) => a.iter_mut().for_each(strip_timings_json),
+        _ => {}
+    }
+}
+
 /// Writes `result.json`, last.
 pub struct ResultJson;
 
@@ -27,7 +43,13 @@ impl Exporter for ResultJson {
         let path = ctx.dir.join(RESULT_FILE);
         write_atomic(&path, |tmp| -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
             let f = std::io::BufWriter::new(std::fs::File::create(tmp)?);
-            serde_json::to_writer(f, ctx.doc)?;
+            if ctx.strip_timings {
+                let mut v = serde_json::to_value(ctx.doc)?;
+                strip_timings_json(&mut v);
+                serde_json::to_writer(f, &v)?;
+            } else {
+                serde_json::to_writer(f, ctx.doc)?;
+            }
             Ok(())
         })?;
         Ok(vec![path])

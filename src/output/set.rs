@@ -78,6 +78,11 @@ pub struct SetOptions<'a> {
     /// Opt-in formats to write as well (`prt`, `obj`, `gltf`, `dot`; see
     /// [`super::opt_in_formats`]); an unknown name is an error before anything is written.
     pub export: &'a [String],
+    /// Annotations for the pictures (full run, first room join, ground truth).
+    pub notes: super::Notes<'a>,
+    /// Leave machine-dependent figures (timings) out of `result.json`, so that a rerun on
+    /// another machine writes the same bytes (the experiments' committed results).
+    pub strip_timings: bool,
 }
 
 /// What [`write_run`] did.
@@ -478,6 +483,8 @@ pub fn write_run_with(
         snapshots,
         cx: opts.cx,
         export: opts.export,
+        notes: opts.notes,
+        strip_timings: opts.strip_timings,
     };
     let names: Vec<String> = list
         .iter()

@@ -62,9 +62,9 @@ pub const DOORWAY_TOLERANCE: f64 = 0.02;
 /// tunnel (the plane and axis distances say where).
 pub const SEPARATION_POSITION_TOLERANCE: f64 = 0.10;
 
-/// Scores of the stopped run against the ground truth; runs the full decimation when the
-/// experiment's stop rule is not `none`.
-fn truth_eval(p: &mut Run, truth: &GroundTruth, diag: f64) -> TruthEval {
+/// Scores of the stopped run against the ground truth; `full` is the full decimation (stop
+/// `none`) when the experiment's stop rule is not `none` (run here if not given).
+fn truth_eval(p: &mut Run, truth: &GroundTruth, diag: f64, full: Option<&Decimation>) -> TruthEval {
     let doc = &p.doc;
     let loc = Locator::new(doc);
     let active_volume: f64 = doc.cells.iter().map(|c| c.volume).sum::<f64>() + 0.0;
@@ -124,6 +124,8 @@ fn truth_eval(p: &mut Run, truth: &GroundTruth, diag: f64) -> TruthEval {
     let full_owned;
     let full: &Decimation = if p.dec.settings.stop == StopRule::None {
         &p.dec
+    } else if let Some(f) = full {
+        f
     } else {
         let t = Instant::now();
         let settings = crate::decimate::Settings {
@@ -197,10 +199,18 @@ fn truth_eval(p: &mut Run, truth: &GroundTruth, diag: f64) -> TruthEval {
     }
 }
 
-/// The evaluation of a finished pipeline run (`t0`: when the experiment started).
-pub fn evaluate(def: &Definition, model: &Model, truth: Option<&GroundTruth>, p: &mut Run, t0: Instant) -> Evaluation {
+/// The evaluation of a finished pipeline run (`t0`: when the experiment started; `full`:
+/// the full decimation, stop `none`, if the caller ran it already).
+pub fn evaluate(
+    def: &Definition,
+    model: &Model,
+    truth: Option<&GroundTruth>,
+    p: &mut Run,
+    full: Option<&Decimation>,
+    t0: Instant,
+) -> Evaluation {
     let diag = diagonal(&p.doc.model.bbox);
-    let truth_eval = truth.map(|t| truth_eval(p, t, diag));
+    let truth_eval = truth.map(|t| truth_eval(p, t, diag, full));
     let s = &p.cx.stats;
     let doc = &p.doc;
     let (next_weight, stop_reason) = match p.dec.stop {
@@ -240,7 +250,12 @@ pub fn evaluate(def: &Definition, model: &Model, truth: Option<&GroundTruth>, p:
             leaks: s.leaks,
             active_volume: doc.cells.iter().map(|c| c.volume).sum::<f64>() + 0.0,
         },
-        subdivision_stats: p.subdivision_stats.to_json(),
+        subdivision_stats: {
+            // Machine-dependent figures stay out of evaluation.json (see `Timings`).
+            let mut v = p.subdivision_stats.to_json();
+            crate::output::strip_timings_json(&mut v);
+            v
+        },
         decimation: DecimationCounts {
             initial_cells: p.dec.stats.initial_cells,
             initial_pairs: p.dec.stats.initial_pairs,

@@ -30,7 +30,9 @@ pub struct Evaluation {
     pub subdivision_stats: Value,
     /// Decimation counts.
     pub decimation: DecimationCounts,
-    /// Stage timings.
+    /// Stage timings: machine-dependent, so not written to `evaluation.json` (the
+    /// experiment runner writes them to `timings.json`, which git ignores).
+    #[serde(skip, default)]
     pub timings: Timings,
     /// Scores against the ground truth (`null` without one).
     pub truth: Option<TruthEval>,
@@ -125,7 +127,7 @@ pub struct DecimationCounts {
 }
 
 /// Timings.
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct Timings {
     /// `[stage, seconds]` in order.
     pub stages: Vec<(String, f64)>,
