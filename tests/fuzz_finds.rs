@@ -58,14 +58,10 @@ fn vertex_in_front_of_face() {
     check("vertex_in_front_of_face.obj");
 }
 
-/// Still fails: an earlier cut through a vertex 1e-8 off its plane (beyond the plane
-/// tolerance, within the weld distance) leaves a valid cell with a sliver face; the cut by
-/// polygon 5 finds that face entirely on its plane and is refused, so the polygon crosses
-/// the cell. Cutting with vertices within the weld distance on the plane from the start
-/// fixes this file but makes the BSP complex of `caverns` refuse cuts (nearly coplanar
-/// faces); see the report of issue 16.
+/// An earlier cut through a vertex 1e-8 off its plane leaves a valid cell with a sliver
+/// face; the cut by polygon 5 finds that face entirely on its plane. It used to be refused
+/// (so the polygon crossed the cell); now the face goes whole to one piece.
 #[test]
-#[ignore]
 fn polygon_crosses_cell() {
     check("polygon_crosses_cell.obj");
 }
