@@ -63,6 +63,13 @@ impl CellComplex {
 
         let t2 = Instant::now();
         let mut placer = Placer::new(tet, cx.cells.len());
+        // Placement order matters (a refused cut, a sealed crack): it is the polygons'
+        // geometric order, not their order in the file.
+        let mut pending = pending;
+        let cycles: Vec<Vec<[f64; 3]>> = (0..model.polygons.len())
+            .map(|k| canonical_cycle(model, PolygonId(k as u32)))
+            .collect();
+        pending.sort_by(|a, b| cmp_cycles(&cycles[a.idx()], &cycles[b.idx()]).then(a.cmp(b)));
         for (i, &p) in pending.iter().enumerate() {
             if i % 64 == 0 {
                 progress("splitting", i, pending.len());
@@ -279,10 +286,10 @@ impl CellComplex {
         } else {
             support.plane
         };
-        let verts: Vec<[f64; 3]> = poly
-            .verts
-            .iter()
-            .map(|v| support.project(&model.vertices[v.idx()]))
+        let start = canonical_start(model, pid);
+        let n = poly.verts.len();
+        let verts: Vec<[f64; 3]> = (0..n)
+            .map(|k| support.project(&model.vertices[poly.verts[(start + k) % n].idx()]))
             .collect();
         let polygon = ConvexPolygon::new(verts.clone());
         let ids = support.ids;
@@ -295,7 +302,7 @@ impl CellComplex {
         pl.queue.clear();
         pl.epoch += 1;
         let epoch = pl.epoch;
-        for c in pl.seed_cells(tet, poly.verts[0], &self.cells) {
+        for c in pl.seed_cells(tet, poly.verts[start], &self.cells) {
             pl.mark(c, epoch);
             pl.queue.push_back(c);
         }
@@ -435,11 +442,7 @@ impl CellComplex {
         let holes: Vec<(PolygonId, ConvexPolygon)> = ps
             .iter()
             .map(|&p| {
-                let verts: Vec<[f64; 3]> = model.polygons[p.idx()]
-                    .verts
-                    .iter()
-                    .map(|v| support.project(&model.vertices[v.idx()]))
-                    .collect();
+                let verts: Vec<[f64; 3]> = canonical_cycle(model, p).iter().map(|v| support.project(v)).collect();
                 (p, ConvexPolygon::new(verts))
             })
             .filter(|(_, q)| {
@@ -855,16 +858,17 @@ pub(crate) fn polygon_supports(model: &Model) -> (Vec<Plane>, Vec<(usize, bool)>
 /// (normal, offset) keep this near linear.
 fn support_planes(model: &Model, pending: &[PolygonId], tol: &crate::Tolerances) -> (Vec<Support>, Vec<(usize, bool)>) {
     let tolc = tol.coplanar_abs();
-    let verts = |p: PolygonId| -> Vec<[f64; 3]> {
-        model.polygons[p.idx()]
-            .verts
-            .iter()
-            .map(|v| model.vertices[v.idx()])
-            .collect()
-    };
+    // Each polygon from its canonical start, and the largest first, ties in geometric
+    // order: the supports do not depend on face order or face starts.
+    let cycles: Vec<Vec<[f64; 3]>> = pending.iter().map(|&p| canonical_cycle(model, p)).collect();
     let mut order: Vec<usize> = (0..pending.len()).collect();
-    let areas: Vec<f64> = pending.iter().map(|&p| ConvexPolygon::new(verts(p)).area()).collect();
-    order.sort_by(|&a, &b| areas[b].total_cmp(&areas[a]).then(a.cmp(&b)));
+    let areas: Vec<f64> = cycles.iter().map(|c| ConvexPolygon::new(c.clone()).area()).collect();
+    order.sort_by(|&a, &b| {
+        areas[b]
+            .total_cmp(&areas[a])
+            .then_with(|| cmp_cycles(&cycles[a], &cycles[b]))
+            .then(a.cmp(&b))
+    });
     let mut supports: Vec<Support> = Vec::new();
     let mut buckets: HashMap<[i64; 4], Vec<usize>> = HashMap::new();
     let mut of = vec![(0usize, false); pending.len()];
@@ -885,8 +889,8 @@ fn support_planes(model: &Model, pending: &[PolygonId], tol: &crate::Tolerances)
     };
     for k in order {
         let pid = pending[k];
-        let v = verts(pid);
-        let (i, j, l) = plane_triple(&v);
+        let v = &cycles[k];
+        let (i, j, l) = plane_triple(v);
         let plane = Plane::from_points(&v[i], &v[j], &v[l]).normalized();
         // Canonical orientation for bucketing: largest normal component positive.
         let n = plane.n;
@@ -916,8 +920,10 @@ fn support_planes(model: &Model, pending: &[PolygonId], tol: &crate::Tolerances)
             Some(f) => f,
             None => {
                 let poly = &model.polygons[pid.idx()];
+                let (start, n) = (canonical_start(model, pid), poly.verts.len());
+                let id = |x: usize| poly.verts[(start + x) % n];
                 supports.push(Support {
-                    ids: [poly.verts[i], poly.verts[j], poly.verts[l]],
+                    ids: [id(i), id(j), id(l)],
                     plane,
                 });
                 buckets.entry(base).or_default().push(supports.len() - 1);
@@ -926,6 +932,42 @@ fn support_planes(model: &Model, pending: &[PolygonId], tol: &crate::Tolerances)
         };
     }
     (supports, of)
+}
+
+/// Lexicographic order of points (coordinates compared by `total_cmp`).
+fn cmp_points(a: &[f64; 3], b: &[f64; 3]) -> std::cmp::Ordering {
+    a[0].total_cmp(&b[0])
+        .then(a[1].total_cmp(&b[1]))
+        .then(a[2].total_cmp(&b[2]))
+}
+
+/// The position in polygon `p`'s vertex list of its lexicographically smallest vertex
+/// (by coordinates; the first such on ties): where the complex starts walking the polygon,
+/// so that a polygon's rotated start or renumbered vertices change nothing.
+fn canonical_start(model: &Model, p: PolygonId) -> usize {
+    let v = &model.polygons[p.idx()].verts;
+    (0..v.len())
+        .min_by(|&a, &b| cmp_points(&model.vertices[v[a].idx()], &model.vertices[v[b].idx()]).then(a.cmp(&b)))
+        .unwrap_or(0)
+}
+
+/// Polygon `p`'s vertex coordinates in cyclic order from [`canonical_start`].
+fn canonical_cycle(model: &Model, p: PolygonId) -> Vec<[f64; 3]> {
+    let v = &model.polygons[p.idx()].verts;
+    let s = canonical_start(model, p);
+    (0..v.len())
+        .map(|k| model.vertices[v[(s + k) % v.len()].idx()])
+        .collect()
+}
+
+/// Lexicographic order of canonical cycles (point by point, then length): the order in
+/// which polygons are placed, independent of the input's face order.
+fn cmp_cycles(a: &[[f64; 3]], b: &[[f64; 3]]) -> std::cmp::Ordering {
+    a.iter()
+        .zip(b)
+        .map(|(p, q)| cmp_points(p, q))
+        .find(|o| o.is_ne())
+        .unwrap_or(a.len().cmp(&b.len()))
 }
 
 /// Indices of three polygon vertices spanning the largest-area triangle among those with
@@ -1069,5 +1111,47 @@ impl Placer {
         }
         let _ = FACE_SLOTS;
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn canonical_cycle_ignores_face_start_and_vertex_numbering() {
+        let v = vec![[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]];
+        let faces = vec![vec![0, 1, 2], vec![3, 1, 0], vec![2, 1, 3], vec![0, 2, 3]];
+        let m = crate::model::from_soup("t", v.clone(), faces.clone()).expect("tetrahedron");
+        // The same tetrahedron, vertices renumbered and faces rotated and reordered.
+        let perm = [2usize, 0, 3, 1];
+        let mut v2 = vec![[0.0; 3]; 4];
+        for (i, &j) in perm.iter().enumerate() {
+            v2[j] = v[i];
+        }
+        let faces2: Vec<Vec<u32>> = faces
+            .iter()
+            .rev()
+            .enumerate()
+            .map(|(k, f)| {
+                let mut f: Vec<u32> = f.iter().map(|&x| perm[x as usize] as u32).collect();
+                f.rotate_left(k % 3);
+                f
+            })
+            .collect();
+        let m2 = crate::model::from_soup("t", v2, faces2).expect("tetrahedron");
+        let sorted = |m: &Model| {
+            let mut c: Vec<Vec<[f64; 3]>> = (0..m.polygons.len() as u32)
+                .map(|k| canonical_cycle(m, PolygonId(k)))
+                .collect();
+            c.sort_by(|a, b| cmp_cycles(a, b));
+            c
+        };
+        assert_eq!(sorted(&m), sorted(&m2));
+        // Each cycle starts at its smallest vertex; the order is lexicographic.
+        let c = sorted(&m);
+        assert!(c.iter().all(|f| f.iter().all(|p| cmp_points(&f[0], p).is_le())));
+        assert!(c.windows(2).all(|w| cmp_cycles(&w[0], &w[1]).is_lt()));
+        assert_eq!(cmp_cycles(&c[0][..2], &c[0]), std::cmp::Ordering::Less);
     }
 }

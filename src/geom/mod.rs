@@ -56,7 +56,9 @@
 //! distinct vertex once, computes one new vertex per crossed edge (interpolated in a
 //! canonical endpoint order, so it is bit-identical whichever face asks, and cached),
 //! gives both pieces and the cross-section those same vertices, and keeps all On
-//! vertices and T-vertices, so conforming input gives conforming output. Volume,
+//! vertices and T-vertices, so conforming input gives conforming output (a face with
+//! every vertex On goes whole to one piece; when no assignment conforms, the cut is
+//! retried with a wider On band, then with none). Volume,
 //! centroid and area are boundary integrals, valid for subdivided boundaries.
 //!
 //! Vertex sharing between *different* polyhedra (a cell and its neighbour) is not

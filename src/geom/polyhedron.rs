@@ -253,19 +253,25 @@ impl ConvexPolyhedron {
     ///   an edge or a face, within the weld distance);
     /// - the cross-section area is below `tol.area_abs()`;
     /// - a piece's volume is below [`min_volume`]`(tol)`;
-    /// - the pieces would not be valid: a face lies entirely on the plane (a sliver face),
+    /// - the pieces would not be valid (a face lying on the plane fits neither piece),
     ///   a crossing point rounds onto another vertex, the open boundary is not one simple
     ///   cycle, or a piece fails [`check`](Self::check).
     pub fn cut(&self, plane: &Plane, tol: &Tolerances, new_tag: u32) -> Cut {
         // First with the plane tolerance; when that gives no valid pieces (typically a
         // vertex a hair off the plane makes a sliver edge or face), once more with
         // vertices within the weld distance on the plane.
+        // Last, with no On band at all (every vertex strictly on the side of the sign of
+        // its distance): a face nearly parallel to the plane then cannot have a run of On
+        // vertices between its front and back parts, which no assignment makes conforming.
         match self.cut_within(&Classifier::new(plane, tol), plane, tol, new_tag) {
             (c, false) => c,
-            (_, true) => {
-                self.cut_within(&Classifier::snapping(plane, tol), plane, tol, new_tag)
-                    .0
-            }
+            (_, true) => match self.cut_within(&Classifier::snapping(plane, tol), plane, tol, new_tag) {
+                (c, false) => c,
+                (_, true) => {
+                    self.cut_within(&Classifier::with_eps(plane, 0.0), plane, tol, new_tag)
+                        .0
+                }
+            },
         }
     }
 
@@ -311,7 +317,19 @@ impl ConvexPolyhedron {
         if maxf < thick || maxb < thick {
             return (larger, false);
         }
-        match self.cut_topological(&faces, pos, &dist, cl, plane, tol, new_tag) {
+        // Faces lying on the plane (every vertex On) while the polyhedron straddles it go
+        // whole to the piece their body lies in (by the face's outward normal); a sliver
+        // face's normal may say nothing, so the opposite assignment is tried as well.
+        let sides: Vec<Side> = dist.iter().map(|&d| cl.side_of(d)).collect();
+        let has_on_face = faces.iter().any(|f| f.iter().all(|&i| sides[i as usize] == Side::On));
+        let attempt = self
+            .cut_topological(&faces, pos.clone(), &dist, cl, plane, tol, new_tag, false)
+            .or_else(|| {
+                has_on_face
+                    .then(|| self.cut_topological(&faces, pos, &dist, cl, plane, tol, new_tag, true))
+                    .flatten()
+            });
+        match attempt {
             Some(s) => {
                 let (vf, vb) = (s.front.volume(), s.back.volume());
                 if !(vf.min(vb) >= min_volume(tol)) {
@@ -330,6 +348,11 @@ impl ConvexPolyhedron {
     /// reversed, which is conforming by construction; the front piece's open boundary must
     /// be exactly its reverse. Both pieces must then pass [`check`](Self::check), so a cut
     /// never turns a valid polyhedron into an invalid one.
+    ///
+    /// A face with every vertex On lies on the plane (a face nearly coplanar with it, or a
+    /// sliver face): it goes whole to the piece its body lies in, the back piece when its
+    /// outward normal points to the plane's front (`flip_on` reverses this choice), and
+    /// the section is the rest of the cross-section (so it borders that face).
     #[allow(clippy::too_many_arguments)]
     fn cut_topological(
         &self,
@@ -340,6 +363,7 @@ impl ConvexPolyhedron {
         plane: &Plane,
         tol: &Tolerances,
         new_tag: u32,
+        flip_on: bool,
     ) -> Option<PolyhedronSplit> {
         let sides: Vec<Side> = dist.iter().map(|&d| cl.side_of(d)).collect();
         let mut bits: HashMap<Key, u32> = pos.iter().enumerate().map(|(i, p)| (key(p), i as u32)).collect();
@@ -358,9 +382,14 @@ impl ConvexPolyhedron {
         for (fi, v) in faces.iter().enumerate() {
             let fs: Vec<Side> = v.iter().map(|&i| sides[i as usize]).collect();
             let tag = self.tags[fi];
-            match Classification::from_sides(fs.iter().copied()) {
-                Classification::Coplanar => return None,
-                Classification::Front => {
+            let class = match Classification::from_sides(fs.iter().copied()) {
+                Classification::Coplanar if (dot(&self.faces[fi].area_vector(), &plane.n) > 0.0) != flip_on => {
+                    Classification::Back
+                }
+                c => c,
+            };
+            match class {
+                Classification::Front | Classification::Coplanar => {
                     ff.push(v.clone());
                     ft.push(tag);
                     fo.push(Some(fi));

@@ -62,6 +62,12 @@ impl Hasher for Fx {
 pub(crate) type FxBuild = BuildHasherDefault<Fx>;
 
 /// Validates, cleans and reports. `name` is the model name, `file` the name used in errors.
+/// The rounding unit of coordinates up to `max_abs` in magnitude: `f64::EPSILON * max_abs`
+/// (within a factor of two of the spacing of doubles there).
+fn coordinate_unit(max_abs: f64) -> f64 {
+    f64::EPSILON * max_abs
+}
+
 pub(crate) fn clean(name: &str, file: &str, soup: Soup) -> Result<Model, ModelError> {
     let Soup { vertices, polygons } = soup;
     let nv = vertices.len();
@@ -142,6 +148,16 @@ pub(crate) fn clean(name: &str, file: &str, soup: Soup) -> Result<Model, ModelEr
         });
     }
     let tolerances = Tolerances::for_scale(diag);
+    let unit = coordinate_unit(max_abs);
+    if unit > tolerances.plane_abs() {
+        return Err(ModelError::Precision {
+            file: file.into(),
+            max_abs,
+            unit,
+            plane: tolerances.plane_abs(),
+            diag,
+        });
+    }
 
     // 2. Weld.
     let (weld_map, welded) = weld(&vertices, lo, tolerances.weld_abs());
@@ -627,6 +643,29 @@ mod tests {
                 })
                 .collect(),
         }
+    }
+
+    #[test]
+    fn coordinates_coarser_than_the_plane_tolerance_are_refused() {
+        // A unit cube (diagonal √3, plane tolerance 1.7e-9): at offset 1e6 the rounding
+        // unit is 2.2e-10, at 1e7 it is 2.2e-9 (> 1.7e-9), at 1e9 2.2e-7.
+        for (offset, ok) in [(0.0, true), (1e6, true), (1e7, false), (1e9, false)] {
+            let (mut v, f) = cube();
+            for p in &mut v {
+                for x in p.iter_mut() {
+                    *x += offset;
+                }
+            }
+            match clean("c", "c", soup(v, f)) {
+                Ok(_) => assert!(ok, "offset {offset:e} accepted"),
+                Err(e) => {
+                    assert!(!ok, "offset {offset:e}: {e}");
+                    assert!(matches!(e, ModelError::Precision { .. }), "{e}");
+                    assert!(e.to_string().contains("nearer the origin"), "{e}");
+                }
+            }
+        }
+        assert_eq!(coordinate_unit(1.0), f64::EPSILON);
     }
 
     fn cube() -> (Vec<[f64; 3]>, Vec<Vec<u32>>) {

@@ -162,6 +162,26 @@ pub enum ModelError {
         /// Bounding-box diagonal of the referenced vertices.
         diag: f64,
     },
+
+    /// The coordinates are too coarse for the model's size: their rounding unit
+    /// (`f64::EPSILON` × largest |coordinate|) exceeds the plane tolerance
+    /// ([`crate::Tolerances::plane_abs`], 1e-9 of the diagonal), so points constructed on a
+    /// plane (where a cell is cut) cannot be represented within the tolerance that decides
+    /// whether a point is on that plane. Typical cause: a small model far from the origin.
+    #[error(
+        "{file}: coordinates too coarse for the model's size: largest |coordinate| {max_abs:e} has          rounding unit {unit:e}, above the plane tolerance {plane:e} (1e-9 of the diagonal          {diag:e}); translate the model nearer the origin"
+    )]
+    Precision {
+        file: String,
+        /// Largest absolute coordinate of a referenced vertex.
+        max_abs: f64,
+        /// Its rounding unit, `f64::EPSILON * max_abs`.
+        unit: f64,
+        /// The absolute plane tolerance.
+        plane: f64,
+        /// Bounding-box diagonal of the referenced vertices.
+        diag: f64,
+    },
 }
 
 impl ModelError {

@@ -57,7 +57,13 @@
 //!    of those vertices at most 1e15, diagonal at least 1e-9), since every later step uses the
 //!    tolerances. Out of range, a model whose every polygon has zero area in the exact input
 //!    coordinates (fewer than 3 distinct points, or collinear; e.g. `f 1 1 1`) is reported as
-//!    [`ModelError::Empty`], as cleaning would: it would be empty at any scale.
+//!    [`ModelError::Empty`], as cleaning would: it would be empty at any scale. The
+//!    coordinates must also be fine enough for the model's size ([`ModelError::Precision`]:
+//!    `f64::EPSILON` × largest |coordinate| at most [`Tolerances::plane_abs`], 1e-9 of the
+//!    diagonal; a model of size 10 at offset 1e9 is refused): a point constructed on a plane
+//!    cannot be closer to it than the rounding unit, so coarser coordinates make the on-plane
+//!    decisions of the cell complex arbitrary (cell volumes stop summing to the hull's,
+//!    polygons are left crossing cells).
 //! 2. **Welding.** Vertices are visited in file order; a vertex closer than
 //!    [`Tolerances::weld_abs`] to an earlier surviving vertex is merged into the nearest such
 //!    vertex (grid hash with cell size = weld distance, expected O(n)). Chains are not
