@@ -68,7 +68,7 @@ pub fn config_label(case: &SuiteCase, s: &Settings) -> String {
         StopRule::Cells(n) if n == case.truth.rooms.len() => "cells:K".to_string(),
         other => other.to_string(),
     };
-    if s.heuristic == HeuristicKind::Clearance {
+    if s.heuristic.heuristic().engine() == crate::decimate::HeuristicEngine::Clearance {
         return format!("{} {stop}", s.heuristic);
     }
     format!("{}/{} {stop}", s.heuristic, s.estimator)
