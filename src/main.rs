@@ -290,8 +290,9 @@ fn bench_accuracy(
     bar.finish_and_clear();
     bench::write_all(&results, out).with_context(|| format!("cannot write into {}", out.display()))?;
     println!("{}", bench::table(&results));
+    println!("{}", suite::estimators::write_estimator_errors(&cases, out)?);
     println!(
-        "wrote {}/{{cases.csv,summary.csv,accuracy.json,table.md}}",
+        "wrote {}/{{cases.csv,summary.csv,accuracy.json,table.md,time_vs_error.png,time_vs_error.svg,estimators.csv,estimators.md}}",
         out.display()
     );
     Ok(())

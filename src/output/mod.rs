@@ -24,6 +24,7 @@ mod weight_csv;
 pub use error::OutputError;
 pub use export::{ExportContext, Exporter, exporters, opt_in_formats, write_atomic};
 pub use locate::{Locator, read_points};
+pub use plot::{ScatterPoint, scatter};
 pub use prt::{MAX_POINTS_ON_WINDING, MAX_PORTALS_ON_LEAF, PrtFile, PrtLimits, PrtPortal, parse_prt, prt_file};
 pub use set::{
     FileEntry, MANIFEST_FILE, MANIFEST_SCHEMA, MANIFEST_VERSION, Manifest, SetOptions, Written, check_output_dir,
