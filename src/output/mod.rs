@@ -30,6 +30,7 @@ pub use set::{
     FileEntry, MANIFEST_FILE, MANIFEST_SCHEMA, MANIFEST_VERSION, Manifest, SetOptions, Written, check_output_dir,
     check_run, interrupt, read_manifest, remove_run, verify_file, write_run, write_run_with,
 };
+pub use svg::cells_svg;
 pub use weight_csv::write_weight_csv;
 
 use crate::complex::{CellComplex, ComplexStats};
