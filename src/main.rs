@@ -84,11 +84,12 @@ enum Cmd {
     Run {
         /// Model file (.obj or .mesh).
         model: PathBuf,
-        /// Portal weight. clearance (the default; ours): rooms are the basins of the
-        /// distance-to-walls field and doorways its passes; the weight is the ratio of the
-        /// smaller room's clearance to the pass's, so it needs no scale and stops by
-        /// itself. The thesis's: aspect (4.1.4), refined (4.3.2), volume (4.3.3).
-        #[arg(long, default_value = "clearance")]
+        /// Portal weight. aperture (the default; ours): clearance, plus rooms joined through
+        /// an opening small against their cross-section kept apart. clearance (ours): rooms
+        /// are the basins of the distance-to-walls field and doorways its passes; the weight
+        /// is the ratio of the smaller room's clearance to the pass's, so it needs no scale
+        /// and stops by itself. The thesis's: aspect (4.1.4), refined (4.3.2), volume (4.3.3).
+        #[arg(long, default_value = "aperture")]
         heuristic: portalfind::decimate::HeuristicKind,
         /// Projected cell area for the thesis's heuristics: bbox (bounding rectangle), hull
         /// (2D convex hull) or union (exact union of the convex pieces). Not used by
@@ -362,7 +363,7 @@ enum BenchCmd {
         #[arg(
             long,
             value_delimiter = ',',
-            default_value = "aspect/hull@rooms,refined/hull@rooms,volume/hull@rooms,aspect/hull@threshold:3,clearance@threshold:1.8"
+            default_value = "aspect/hull@rooms,refined/hull@rooms,volume/hull@rooms,aspect/hull@threshold:3,clearance@threshold:1.8,aperture@threshold:1.8"
         )]
         configs: Vec<portalfind::suite::bench::Config>,
         /// Which half of the suite: tune, report or all.
@@ -463,8 +464,9 @@ fn bench_accuracy(
     bar.finish_and_clear();
     bench::write_all(&results, out).with_context(|| format!("cannot write into {}", out.display()))?;
     println!("{}", bench::table(&results));
+    println!("{}", suite::estimators::write_estimator_errors(&cases, out)?);
     println!(
-        "wrote {}/{{cases.csv,summary.csv,accuracy.json,table.md}}",
+        "wrote {}/{{cases.csv,summary.csv,accuracy.json,table.md,time_vs_error.png,time_vs_error.svg,estimators.csv,estimators.md}}",
         out.display()
     );
     Ok(())

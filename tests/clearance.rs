@@ -43,12 +43,23 @@ fn rotate_789(p: [f64; 3]) -> [f64; 3] {
 }
 
 /// (rooms isolated, final cells, final portal pairs) at the default stop.
-fn at_default_stop(name: &str, f: impl Fn([f64; 3]) -> [f64; 3]) -> (usize, usize, usize, usize, usize) {
+fn at_default_stop(
+    h: HeuristicKind,
+    name: &str,
+    f: impl Fn([f64; 3]) -> [f64; 3],
+) -> (usize, usize, usize, usize, usize) {
     let tm = portalfind::generate::thesis::by_name(name).unwrap();
     let verts: Vec<[f64; 3]> = tm.soup.vertices.iter().map(|&p| f(p)).collect();
     let m = portalfind::model::from_soup(tm.name, verts, tm.soup.polygons.clone()).unwrap();
     let cx = portalfind::pipeline::complex_of(&m).unwrap();
-    let part = Decimation::run(&cx, &settings(StopRule::Threshold(DEFAULT_RATIO))).partition;
+    let part = Decimation::run(
+        &cx,
+        &Settings {
+            heuristic: h,
+            ..settings(StopRule::Threshold(DEFAULT_RATIO))
+        },
+    )
+    .partition;
     let rooms: Vec<Vec<[f64; 3]>> = tm
         .truth
         .rooms
@@ -66,32 +77,35 @@ fn at_default_stop(name: &str, f: impl Fn([f64; 3]) -> [f64; 3]) -> (usize, usiz
 
 /// The thesis models at the default stop, as shipped and after the 7°/8°/9° rotation with
 /// an offset of 1e6: every room isolated, one cell per room, one portal pair per doorway.
-/// (The caverns have 6 caves and 7 tunnels; the noisy model 4 rooms.)
+/// (The caverns have 6 caves and 7 tunnels; the noisy model 4 rooms.) Both `clearance` and
+/// `aperture` (the default).
 #[test]
 fn thesis_models_rooms_at_default_stop() {
     let mut failures = Vec::new();
-    for name in [
-        "four_room_optimized",
-        "four_room_tessellated",
-        "four_room_distorted",
-        "noisy",
-        "caverns",
-    ] {
-        for (variant, moved) in [("as shipped", false), ("rotated 7/8/9 + 1e6", true)] {
-            let got = if moved {
-                at_default_stop(name, |p| {
-                    let q = rotate_789(p);
-                    [q[0] + 1e6, q[1] + 1e6, q[2] + 1e6]
-                })
-            } else {
-                at_default_stop(name, |p| p)
-            };
-            let (iso, rooms, cells, portals, doorways) = got;
-            println!(
-                "{name:<24} {variant:<22} rooms {iso}/{rooms} cells {cells} portals {portals} (doorways {doorways})"
-            );
-            if iso != rooms || cells != rooms || portals != doorways {
-                failures.push(format!("{name} {variant}: {got:?}"));
+    for h in [HeuristicKind::Clearance, HeuristicKind::Aperture] {
+        for name in [
+            "four_room_optimized",
+            "four_room_tessellated",
+            "four_room_distorted",
+            "noisy",
+            "caverns",
+        ] {
+            for (variant, moved) in [("as shipped", false), ("rotated 7/8/9 + 1e6", true)] {
+                let got = if moved {
+                    at_default_stop(h, name, |p| {
+                        let q = rotate_789(p);
+                        [q[0] + 1e6, q[1] + 1e6, q[2] + 1e6]
+                    })
+                } else {
+                    at_default_stop(h, name, |p| p)
+                };
+                let (iso, rooms, cells, portals, doorways) = got;
+                println!(
+                    "{h} {name:<24} {variant:<22} rooms {iso}/{rooms} cells {cells} portals {portals} (doorways {doorways})"
+                );
+                if iso != rooms || cells != rooms || portals != doorways {
+                    failures.push(format!("{h} {name} {variant}: {got:?}"));
+                }
             }
         }
     }

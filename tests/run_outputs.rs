@@ -109,7 +109,7 @@ fn check_schema(doc: &Value) {
     assert!(m["report"].is_object() && m["report"].get("input_vertices").is_some());
 
     let s = &doc["settings"];
-    assert!(["aspect", "refined", "volume", "clearance"].contains(&string(s, "heuristic")));
+    assert!(["aspect", "refined", "volume", "clearance", "aperture"].contains(&string(s, "heuristic")));
     assert!(["bbox", "hull", "union"].contains(&string(s, "estimator")));
     assert!(string(s, "stop").parse::<StopRule>().is_ok());
     assert!(["auto", "exact"].contains(&string(s, "queue")));

@@ -42,6 +42,21 @@
 //! normalised by values elsewhere in the model). [`DEFAULT_RATIO`] was chosen on the tuning
 //! half of the ground-truth suite (`src/suite/`).
 //!
+//! **Aperture gate** (the `aperture` heuristic, [`ApertureGate`]). In buildings the
+//! largest empty ball of a room is bounded by the ceiling, so a door 2.1 m high and wide
+//! has a pass of about 1.05 against room peaks of 1.3–1.7: wide openings and small rooms
+//! (stairwells, corridors) join at a persistence below any stop that keeps the rest
+//! together. What still tells them apart is the *area*: the opening is a small part of
+//! the room's cross-section. When a pair of persistence ≥ `from` pops, and both components
+//! hold at least `ball` times their largest empty ball (so they are rooms, not pieces of
+//! the region around a peak), the saddle is first refined
+//! ([`CellField::refined_passage`] on every portal between them: more, still real, paths;
+//! the pair is weighed again); then the pair is kept apart if the smaller of the two
+//! components' projected sections on the portal plane (2D hull of the 3D hull) is at least
+//! `ratio` times the portal area. A kept pair is weighed again when either side grows.
+//! Both tests are ratios (areas, volumes), so the gate is scale-free. With a `cells:N`
+//! stop the gate is off (that stop asks for N cells).
+//!
 //! The weight formula is the heuristic's ([`Clearance`](super::heuristic::Clearance));
 //! this file keeps the field and the engine, which maintains each component's peak and
 //! its saddles instead of projected areas.
@@ -50,9 +65,12 @@ use std::cmp::Ordering;
 use std::collections::{BTreeMap, BinaryHeap};
 use std::time::Instant;
 
+use super::MEAN_NORMAL_REL;
 use super::heuristic::{PairContext, sanitize};
+use super::hull3::Hull3;
+use super::project::{Frame, P2, hull2, polygon_area};
 use super::{Decimation, DecimationStats, Settings, Step, StopReason, StopRule};
-use crate::base::vec::lerp;
+use crate::base::vec::{lerp, norm};
 use crate::complex::CellComplex;
 use crate::geom::ClearanceField;
 use crate::ids::CellId;
@@ -60,6 +78,15 @@ use crate::ids::CellId;
 /// The default stop ratio (`threshold:R` of the `clearance` heuristic): a pass must be
 /// narrower than `1 / R` of the smaller of the two rooms it joins to keep them apart.
 pub const DEFAULT_RATIO: f64 = 1.8;
+
+/// The `aperture` heuristic's gate (chosen on the tune half of the suite, `examples/diag_rooms.rs`):
+/// a pair of persistence ≥ 1.1 whose components each hold twice their largest empty ball
+/// is kept apart when the smaller projected section is at least 1.5 times the opening.
+pub const DEFAULT_APERTURE: ApertureGate = ApertureGate {
+    from: 1.1,
+    ratio: 1.5,
+    ball: 2.0,
+};
 
 /// The clearance field sampled on the cell complex (see the module docs).
 #[derive(Clone, Debug)]
@@ -71,6 +98,10 @@ pub struct CellField {
     /// along the best sampled path from one cell's best sample through the portal to the
     /// other's.
     pub passage: Vec<f64>,
+    /// The distance field itself.
+    field: ClearanceField,
+    /// The best sample of each cell (where `value` was found).
+    best: Vec<[f64; 3]>,
 }
 
 /// The lowest clearance on the segment `p..q` (which lies in free space), by marching:
@@ -110,11 +141,8 @@ impl CellField {
         let mut best = vec![[0.0; 3]; cx.cells.len()];
         for (id, c) in cx.active_cells() {
             let i = id.idx();
-            let g = c.poly.centroid();
-            let mut samples = vec![g];
-            samples.extend(c.poly.vertices().into_iter().map(|v| mid(g, v)));
-            samples.extend(c.poly.faces.iter().map(|f| mid(g, f.centroid())));
-            let (mut bv, mut bp) = (f64::NEG_INFINITY, g);
+            let samples = cell_samples(&c.poly);
+            let (mut bv, mut bp) = (f64::NEG_INFINITY, samples[0]);
             for x in samples {
                 let d = field.distance(x);
                 if d > bv {
@@ -149,15 +177,143 @@ impl CellField {
                 if s.is_finite() { s } else { 0.0 }
             })
             .collect();
-        CellField { value, passage }
+        CellField {
+            value,
+            passage,
+            field,
+            best,
+        }
     }
 }
 
-/// A neighbour of a component: the saddle and the portal area between them.
+/// Samples of a convex cell: its centroid, and the midpoints from it to each vertex and
+/// each face centroid (the samples its peak is taken over).
+fn cell_samples(poly: &crate::geom::ConvexPolyhedron) -> Vec<[f64; 3]> {
+    let g = poly.centroid();
+    let mut samples = vec![g];
+    samples.extend(poly.vertices().into_iter().map(|v| mid(g, v)));
+    samples.extend(poly.faces.iter().map(|f| mid(g, f.centroid())));
+    samples
+}
+
+impl CellField {
+    /// A finer lower bound of the pass through portal `k` (of `cx.portals`) than
+    /// `passage[k]`: paths from each side's best sample, straight to any sample of that
+    /// cell, straight to any of more samples of the portal (also the points a quarter of
+    /// the way from each vertex to the centroid, and the edge midpoints), and on the same
+    /// way to the other side's best sample. Every such path lies in the two convex cells,
+    /// so the value is still the lowest clearance along a real path (never above the true
+    /// pass); it is at least `passage[k]`.
+    pub fn refined_passage(&self, cx: &CellComplex, k: usize) -> f64 {
+        let p = &cx.portals[k];
+        let [a, b] = p.cells;
+        let (sa, sb) = (
+            cell_samples(&cx.cells[a.idx()].poly),
+            cell_samples(&cx.cells[b.idx()].poly),
+        );
+        let (ba, bb) = (self.best[a.idx()], self.best[b.idx()]);
+        // Per side, the best first leg to each cell sample.
+        let leg = |best: [f64; 3], xs: &[[f64; 3]]| -> Vec<([f64; 3], f64)> {
+            xs.iter().map(|&x| (x, segment_min(&self.field, best, x))).collect()
+        };
+        let (la, lb) = (leg(ba, &sa), leg(bb, &sb));
+        let side = |legs: &[([f64; 3], f64)], y: [f64; 3], floor: f64| {
+            let mut v = f64::NEG_INFINITY;
+            for &(x, l) in legs {
+                if l <= v.max(floor) {
+                    continue;
+                }
+                v = v.max(l.min(segment_min(&self.field, x, y)));
+            }
+            v
+        };
+        let mut s = self.passage[k];
+        for piece in &p.pieces {
+            let m = piece.centroid();
+            let n = piece.verts.len();
+            let mut ys = vec![m];
+            for (i, &v) in piece.verts.iter().enumerate() {
+                ys.push(mid(m, v));
+                ys.push(lerp(&v, &m, 0.25));
+                ys.push(lerp(&m, &mid(v, piece.verts[(i + 1) % n]), 0.75));
+            }
+            for y in ys {
+                if self.field.distance(y) <= s {
+                    continue;
+                }
+                let va = side(&la, y, s);
+                if va <= s {
+                    continue;
+                }
+                s = s.max(va.min(side(&lb, y, s)));
+            }
+        }
+        if s.is_finite() { s } else { self.passage[k] }
+    }
+}
+
+/// A neighbour of a component: the saddle, the portal area between them, and the portals'
+/// area vector (oriented from the component that holds the link to the neighbour).
 #[derive(Clone, Copy, Debug)]
 struct Link {
     saddle: f64,
     area: f64,
+    av: [f64; 3],
+    /// A point on the largest portal piece and its normal (same orientation as `av`): the
+    /// plane when the area vector degenerates.
+    largest: (f64, [f64; 3], [f64; 3]),
+    /// Whether the saddle is already the refined one ([`CellField::refined_passage`]) of
+    /// this portal set.
+    refined: bool,
+}
+
+impl Link {
+    const EMPTY: Link = Link {
+        saddle: 0.0,
+        area: 0.0,
+        av: [0.0; 3],
+        largest: (0.0, [0.0, 0.0, 1.0], [0.0; 3]),
+        refined: false,
+    };
+
+    /// The link seen from the other side.
+    fn reversed(&self) -> Link {
+        let n = |v: [f64; 3]| [-v[0], -v[1], -v[2]];
+        Link {
+            av: n(self.av),
+            largest: (self.largest.0, n(self.largest.1), self.largest.2),
+            ..*self
+        }
+    }
+
+    /// The union of two portal sets towards the same neighbour.
+    fn fuse(&self, o: &Link) -> Link {
+        Link {
+            saddle: self.saddle.max(o.saddle),
+            area: self.area + o.area,
+            av: [self.av[0] + o.av[0], self.av[1] + o.av[1], self.av[2] + o.av[2]],
+            largest: if o.largest.0 > self.largest.0 {
+                o.largest
+            } else {
+                self.largest
+            },
+            refined: false,
+        }
+    }
+
+    /// The portal plane's frame (the decimation's rule: the area-weighted mean normal, or
+    /// the largest piece's normal when the mean degenerates).
+    fn frame(&self) -> Frame {
+        let l = norm(&self.av);
+        let n = if l > MEAN_NORMAL_REL * self.area && l.is_finite() {
+            [self.av[0] / l, self.av[1] / l, self.av[2] / l]
+        } else {
+            self.largest.1
+        };
+        Frame::new(n, self.largest.2)
+            .or_else(|| Frame::new([0.0, 0.0, 1.0], self.largest.2))
+            .expect("unit z frame")
+    }
 }
 
 /// A heap entry; the heap is a max-heap, so `Ord` is reversed to pop the lowest weight.
@@ -199,13 +355,103 @@ struct Comp {
     volume: f64,
     pieces: usize,
     links: BTreeMap<u32, Link>,
+    /// The complex cells in the component (kept only when the aperture is needed).
+    members: Vec<u32>,
+    /// The 3D convex hull of the members' vertices, built when first needed.
+    hull: Option<Hull3>,
+}
+
+/// The aperture gate of a persistence merge: a pair whose persistence is at least `from`
+/// is kept apart when the smaller of the two components' projected sections on the
+/// portal plane is at least `ratio` times the portal area (the opening is a small part of
+/// the room's cross-section, as a door is; see [`ApertureGate`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ApertureGate {
+    /// Persistence from which the gate applies (below it, merges are not gated).
+    pub from: f64,
+    /// Section-to-opening ratio at or above which a pair is kept apart.
+    pub ratio: f64,
+    /// The gate applies only when each component's volume is at least `ball` times the
+    /// volume of its largest empty ball (radius = its peak): a component that cannot hold
+    /// its own inscribed ball is a piece of the region around its peak, not yet a room.
+    pub ball: f64,
+}
+
+impl ApertureGate {
+    /// Whether a component of this peak and volume is big enough to be gated.
+    fn holds_ball(&self, peak: f64, volume: f64) -> bool {
+        volume >= self.ball * 4.0 / 3.0 * std::f64::consts::PI * peak.powi(3)
+    }
+}
+
+/// One pair the merge looked at (a collapse, or a pair the gate kept apart), for
+/// diagnostics ([`trace`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TraceStep {
+    /// The two components (smallest cell ids).
+    pub a: CellId,
+    /// The second component.
+    pub b: CellId,
+    /// The persistence `min(peaks) / saddle`.
+    pub weight: f64,
+    /// The peaks.
+    pub peaks: [f64; 2],
+    /// The saddle.
+    pub saddle: f64,
+    /// The portal area between them.
+    pub portal_area: f64,
+    /// The components' projected areas on the portal plane (2D hull of the 3D hull).
+    pub projected: [f64; 2],
+    /// The volumes.
+    pub volumes: [f64; 2],
+    /// Whether the gate kept them apart (no collapse).
+    pub kept: bool,
 }
 
 /// Runs the clearance merge on the active cells of `cx` (the `clearance` heuristic's
 /// engine; `settings.estimator` is not used).
 pub(crate) fn run(cx: &CellComplex, settings: &Settings, progress: &mut dyn FnMut(usize, usize)) -> Decimation {
+    // A stop at a number of cells asks for that many: the gate, which may keep more, is off.
+    let gate = settings
+        .heuristic
+        .heuristic()
+        .aperture_gate()
+        .filter(|_| !matches!(settings.stop, StopRule::Cells(_)));
+    run_inner(cx, settings, gate, None, progress)
+}
+
+/// The merge with `gate` (overriding the heuristic's), recording every pair it looks at
+/// with the components' projected sections (slow: for diagnostics).
+pub fn trace(cx: &CellComplex, settings: &Settings, gate: Option<ApertureGate>) -> (Decimation, Vec<TraceStep>) {
+    let mut t = Vec::new();
+    let d = run_inner(cx, settings, gate, Some(&mut t), &mut |_, _| {});
+    (d, t)
+}
+
+/// The projected area of a component on `frame` (2D convex hull of its 3D hull).
+fn section(cx: &CellComplex, c: &mut Comp, frame: &Frame) -> f64 {
+    let hull = c.hull.get_or_insert_with(|| {
+        let pts: Vec<[f64; 3]> = c
+            .members
+            .iter()
+            .flat_map(|&m| cx.cells[m as usize].poly.vertices())
+            .collect();
+        Hull3::new(&pts)
+    });
+    let a = polygon_area(&hull2(hull.pts.iter().map(|p| frame.project(p)).collect::<Vec<P2>>()));
+    if a.is_finite() { a.max(0.0) } else { 0.0 }
+}
+
+fn run_inner(
+    cx: &CellComplex,
+    settings: &Settings,
+    gate: Option<ApertureGate>,
+    mut trace: Option<&mut Vec<TraceStep>>,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Decimation {
     let t0 = Instant::now();
     let h = settings.heuristic.heuristic();
+    let sections = gate.is_some() || trace.is_some();
     let field = CellField::new(cx);
     let n = cx.cells.len();
     let mut comps: Vec<Comp> = vec![Comp::default(); n];
@@ -217,6 +463,9 @@ pub(crate) fn run(cx: &CellComplex, settings: &Settings, progress: &mut dyn FnMu
         k.peak = field.value[id.idx()];
         k.volume = c.poly.volume();
         k.pieces = 1;
+        if sections {
+            k.members.push(id.0);
+        }
         cells += 1;
     }
     for (k, p) in cx.portals.iter().enumerate() {
@@ -224,14 +473,36 @@ pub(crate) fn run(cx: &CellComplex, settings: &Settings, progress: &mut dyn FnMu
         if !(comps[a.idx()].alive && comps[b.idx()].alive) || a == b {
             continue;
         }
-        let s = field.passage[k];
-        for (x, y) in [(a, b), (b, a)] {
-            let l = comps[x.idx()]
-                .links
-                .entry(y.0)
-                .or_insert(Link { saddle: 0.0, area: 0.0 });
-            l.saddle = l.saddle.max(s);
-            l.area += p.area;
+        let mut l = Link {
+            saddle: field.passage[k],
+            area: p.area,
+            ..Link::EMPTY
+        };
+        for q in &p.pieces {
+            let (qa, qn) = (q.area(), q.normal());
+            l.av = [l.av[0] + qa * qn[0], l.av[1] + qa * qn[1], l.av[2] + qa * qn[2]];
+            if qa > l.largest.0 {
+                l.largest = (qa, qn, q.centroid());
+            }
+        }
+        for (x, y, l) in [(a, b, l), (b, a, l.reversed())] {
+            let e = comps[x.idx()].links.entry(y.0).or_insert(Link::EMPTY);
+            *e = e.fuse(&l);
+        }
+    }
+    // The complex portals of each cell and the component of each cell (union-find), for
+    // the gate's refined saddles.
+    let mut cell_portals: Vec<Vec<u32>> = Vec::new();
+    let mut owner: Vec<u32> = Vec::new();
+    if gate.is_some() {
+        cell_portals = vec![Vec::new(); n];
+        owner = (0..n as u32).collect();
+        for (k, p) in cx.portals.iter().enumerate() {
+            let [a, b] = p.cells;
+            if comps[a.idx()].alive && comps[b.idx()].alive && a != b {
+                cell_portals[a.idx()].push(k as u32);
+                cell_portals[b.idx()].push(k as u32);
+            }
         }
     }
     stats.initial_cells = cells;
@@ -293,15 +564,74 @@ pub(crate) fn run(cx: &CellComplex, settings: &Settings, progress: &mut dyn FnMu
                 next_weight: w,
             };
         }
+        let gated = gate.filter(|g| {
+            w >= g.from && g.holds_ball(comps[a].peak, comps[a].volume) && g.holds_ball(comps[b].peak, comps[b].volume)
+        });
+        if gated.is_some() && !l.refined {
+            // Before the gate decides, the best lower bound of the pass we can afford:
+            // refined passages of every portal between the two components.
+            let (small, other) = if comps[a].members.len() <= comps[b].members.len() {
+                (a, b)
+            } else {
+                (b, a)
+            };
+            let mut s2 = l.saddle;
+            for &m in &comps[small].members {
+                for &k in &cell_portals[m as usize] {
+                    let [x, y] = cx.portals[k as usize].cells;
+                    let o = if x.0 == m { y.0 } else { x.0 };
+                    if find(&mut owner, o) as usize == other {
+                        s2 = s2.max(field.refined_passage(cx, k as usize));
+                    }
+                }
+            }
+            let mut l2 = l;
+            l2.saddle = s2;
+            l2.refined = true;
+            comps[a].links.insert(e.b, l2);
+            comps[b].links.insert(e.a, l2.reversed());
+            stats.weights_computed += 1;
+            heap.push(Entry {
+                weight: weigh(&comps[a], &comps[b], &l2),
+                saddle: l2.saddle,
+                a: e.a,
+                b: e.b,
+            });
+            continue;
+        }
+        if gated.is_some() || trace.is_some() {
+            let frame = l.frame();
+            let pa = section(cx, &mut comps[a], &frame);
+            let pb = section(cx, &mut comps[b], &frame);
+            let kept = gated.is_some_and(|g| pa.min(pb) >= g.ratio * l.area);
+            if let Some(t) = trace.as_deref_mut() {
+                t.push(TraceStep {
+                    a: CellId(e.a),
+                    b: CellId(e.b),
+                    weight: w,
+                    peaks: [comps[a].peak, comps[b].peak],
+                    saddle: l.saddle,
+                    portal_area: l.area,
+                    projected: [pa, pb],
+                    volumes: [comps[a].volume, comps[b].volume],
+                    kept,
+                });
+            }
+            if kept {
+                // Kept apart until one side changes (then the pair is weighed again).
+                continue;
+            }
+        }
         // Collapse b into a (a < b: the survivor keeps the lower id).
         let (pa, pb) = (comps[a].peak, comps[b].peak);
-        let cb = std::mem::take(&mut comps[b]);
+        let mut cb = std::mem::take(&mut comps[b]);
         let mut ca = std::mem::take(&mut comps[a]);
         ca.links.remove(&e.b);
         cells -= 1;
         // Pairs whose weight may change: every neighbour of the side with the lower peak
         // (its partner's peak rises to the higher one), and every neighbour of b (saddle,
-        // volume); with the volumes and piece counts in the context, all of them.
+        // volume); with the volumes and piece counts in the context, or a gate (whose
+        // sections grew), all of them.
         let mut touched: Vec<u32> = Vec::new();
         for (&k, lk) in &cb.links {
             if k as usize == a {
@@ -309,15 +639,11 @@ pub(crate) fn run(cx: &CellComplex, settings: &Settings, progress: &mut dyn FnMu
             }
             let m = &mut comps[k as usize].links;
             m.remove(&e.b);
-            let entry = ca.links.entry(k).or_insert(Link { saddle: 0.0, area: 0.0 });
-            *entry = Link {
-                saddle: entry.saddle.max(lk.saddle),
-                area: entry.area + lk.area,
-            };
-            m.insert(e.a, *entry);
+            let entry = ca.links.entry(k).or_insert(Link::EMPTY);
+            *entry = entry.fuse(lk);
+            m.insert(e.a, entry.reversed());
         }
-        let changed_volume = h.uses_volume();
-        if pa < pb || changed_volume {
+        if pa < pb || h.uses_volume() || gate.is_some() {
             touched.extend(ca.links.keys().copied());
         } else {
             touched.extend(cb.links.keys().copied().filter(|&k| k as usize != a));
@@ -325,6 +651,22 @@ pub(crate) fn run(cx: &CellComplex, settings: &Settings, progress: &mut dyn FnMu
         ca.peak = pa.max(pb);
         ca.volume += cb.volume;
         ca.pieces += cb.pieces;
+        if gate.is_some() {
+            owner[b] = a as u32;
+        }
+        if sections {
+            if ca.members.len() < cb.members.len() {
+                std::mem::swap(&mut ca.members, &mut cb.members);
+            }
+            ca.members.append(&mut cb.members);
+            ca.hull = match (ca.hull.take(), cb.hull.take()) {
+                (Some(mut x), Some(y)) => {
+                    x.insert_all(&y);
+                    Some(x)
+                }
+                _ => None,
+            };
+        }
         ca.alive = true;
         steps.push(Step {
             a: CellId(e.a),
@@ -360,6 +702,15 @@ pub(crate) fn run(cx: &CellComplex, settings: &Settings, progress: &mut dyn FnMu
         stats,
         partition,
     }
+}
+
+/// The component of cell `x` (union-find with path halving).
+fn find(owner: &mut [u32], mut x: u32) -> u32 {
+    while owner[x as usize] != x {
+        owner[x as usize] = owner[owner[x as usize] as usize];
+        x = owner[x as usize];
+    }
+    x
 }
 
 /// Connected regions of the component graph.

@@ -29,12 +29,14 @@ pub use leak_pts::LEAK_FILE;
 pub use locate::{Locator, read_points};
 pub use notes::Notes;
 pub use plot::register_fonts;
+pub use plot::{ScatterPoint, scatter};
 pub use prt::{MAX_POINTS_ON_WINDING, MAX_PORTALS_ON_LEAF, PrtFile, PrtLimits, PrtPortal, parse_prt, prt_file};
 pub use result_json::strip_timings_json;
 pub use set::{
     FileEntry, MANIFEST_FILE, MANIFEST_SCHEMA, MANIFEST_VERSION, Manifest, SetOptions, Written, check_output_dir,
     check_run, interrupt, read_manifest, remove_run, verify_file, write_run, write_run_with,
 };
+pub use svg::cells_svg;
 pub use weight_csv::write_weight_csv;
 
 use crate::complex::{CellComplex, ComplexStats};

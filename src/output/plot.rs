@@ -408,3 +408,123 @@ mod tests {
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }
+
+/// One labelled point of a [`scatter`] plot, in a series (drawn with the series' colour).
+#[derive(Clone, Debug)]
+pub struct ScatterPoint {
+    /// Label written next to the point.
+    pub label: String,
+    /// Series index (0: blue circles, 1: red triangles, then more colours).
+    pub series: usize,
+    /// x (> 0: the axis is logarithmic).
+    pub x: f64,
+    /// y.
+    pub y: f64,
+}
+
+fn scatter_on<DB: DrawingBackend>(
+    root: DrawingArea<DB, plotters::coord::Shift>,
+    points: &[ScatterPoint],
+    title: &str,
+    labels: (&str, &str),
+    series: &[&str],
+) -> Result<(), OutputError>
+where
+    DB::ErrorType: 'static,
+{
+    let text = register_fonts();
+    root.fill(&WHITE).map_err(err)?;
+    let (mut xlo, mut xhi) = (f64::INFINITY, f64::NEG_INFINITY);
+    let mut yhi = 0.0f64;
+    for p in points {
+        xlo = xlo.min(p.x);
+        xhi = xhi.max(p.x);
+        yhi = yhi.max(p.y);
+    }
+    if !(xlo.is_finite() && xlo > 0.0) {
+        (xlo, xhi) = (0.01, 10.0);
+    }
+    let mut b = ChartBuilder::on(&root);
+    b.margin(20);
+    if text {
+        b.caption(title, ("sans-serif", 22))
+            .x_label_area_size(45)
+            .y_label_area_size(70);
+    }
+    let mut chart = b
+        .build_cartesian_2d((xlo / 1.5..xhi * 3.0).log_scale(), 0.0..(yhi * 1.1).max(0.05))
+        .map_err(err)?;
+    if text {
+        chart
+            .configure_mesh()
+            .x_label_formatter(&|x| format!("{x:.2}"))
+            .x_desc(labels.0)
+            .y_desc(labels.1)
+            .draw()
+            .map_err(err)?;
+    }
+    let colours = [BLUE, RED, GREEN, MAGENTA, CYAN, BLACK];
+    for (k, name) in series.iter().enumerate() {
+        let c = colours[k % colours.len()];
+        let pts: Vec<&ScatterPoint> = points.iter().filter(|p| p.series == k).collect();
+        let s = chart
+            .draw_series(pts.iter().map(|p| {
+                if k % 2 == 0 {
+                    Circle::new((p.x, p.y), 5, c.filled()).into_dyn()
+                } else {
+                    TriangleMarker::new((p.x, p.y), 6, c.filled()).into_dyn()
+                }
+            }))
+            .map_err(err)?;
+        if text {
+            s.label(*name).legend(move |(x, y)| Circle::new((x, y), 5, c.filled()));
+            chart
+                .draw_series(pts.iter().map(|p| {
+                    Text::new(
+                        p.label.clone(),
+                        (p.x * 1.08, p.y),
+                        ("sans-serif", 13).into_font().color(&c),
+                    )
+                }))
+                .map_err(err)?;
+        }
+    }
+    if text {
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
+            .map_err(err)?;
+    }
+    root.present().map_err(err)?;
+    Ok(())
+}
+
+/// A scatter plot of labelled points (log x), one marker and colour per series, as PNG
+/// (1200 × 800) when `path` ends in `.png`, else SVG.
+pub fn scatter(
+    path: &Path,
+    points: &[ScatterPoint],
+    title: &str,
+    labels: (&str, &str),
+    series: &[&str],
+) -> Result<(), OutputError> {
+    if path.extension().is_some_and(|e| e == "png") {
+        scatter_on(
+            BitMapBackend::new(path, (1200, 800)).into_drawing_area(),
+            points,
+            title,
+            labels,
+            series,
+        )
+    } else {
+        scatter_on(
+            SVGBackend::new(path, (1200, 800)).into_drawing_area(),
+            points,
+            title,
+            labels,
+            series,
+        )
+    }
+}

@@ -68,7 +68,7 @@ pub fn config_label(case: &SuiteCase, s: &Settings) -> String {
         StopRule::Cells(n) if n == case.truth.rooms.len() => "cells:K".to_string(),
         other => other.to_string(),
     };
-    if s.heuristic == HeuristicKind::Clearance {
+    if s.heuristic.heuristic().engine() == crate::decimate::HeuristicEngine::Clearance {
         return format!("{} {stop}", s.heuristic);
     }
     format!("{}/{} {stop}", s.heuristic, s.estimator)
@@ -494,12 +494,45 @@ pub fn to_json(results: &[CaseResult]) -> Result<String> {
     Ok(serde_json::to_string_pretty(&v)?)
 }
 
-/// Writes `cases.csv`, `summary.csv`, `accuracy.json` and `table.md` into `dir`.
+/// The time-versus-error plot: one point per configuration and half (all families), x the
+/// median pipeline seconds per model, y the share of rooms not isolated.
+pub fn time_vs_error_points(results: &[CaseResult]) -> Vec<crate::output::ScatterPoint> {
+    summarize(results)
+        .into_iter()
+        .filter(|r| r.family == "all")
+        .map(|r| crate::output::ScatterPoint {
+            label: r.config.clone(),
+            series: match r.half {
+                Half::Tune => 0,
+                Half::Report => 1,
+            },
+            x: r.seconds_median.max(1e-3),
+            y: 1.0 - r.rooms_isolated as f64 / r.rooms.max(1) as f64,
+        })
+        .collect()
+}
+
+/// Writes `cases.csv`, `summary.csv`, `accuracy.json`, `table.md` and the time-versus-error
+/// plot (`time_vs_error.png`, `time_vs_error.svg`) into `dir`.
 pub fn write_all(results: &[CaseResult], dir: &std::path::Path) -> Result<()> {
     std::fs::create_dir_all(dir)?;
     write_csv(results, std::fs::File::create(dir.join("cases.csv"))?)?;
     write_summary_csv(results, std::fs::File::create(dir.join("summary.csv"))?)?;
     std::fs::write(dir.join("accuracy.json"), to_json(results)?)?;
     std::fs::write(dir.join("table.md"), table(results))?;
+    let points = time_vs_error_points(results);
+    for f in ["time_vs_error.png", "time_vs_error.svg"] {
+        crate::output::scatter(
+            &dir.join(f),
+            &points,
+            "accuracy bench: run time against error (one point per configuration and half)",
+            (
+                "median pipeline seconds per model (load + complex + decimation)",
+                "share of rooms not isolated",
+            ),
+            &["tune half", "report half"],
+        )
+        .map_err(|e| SuiteError::Write(std::io::Error::other(e.to_string())))?;
+    }
     Ok(())
 }

@@ -13,6 +13,8 @@
 //! | `aspect`  | `A_max / A_p` | 4.1.4: "the ratio between the area of the portal and the largest projected area of the two adjacent cells", figure 4.1: good portal "cell-portal aspect 4:1", bad "1:1" | none (scale-free) |
 //! | `refined` | `(A_max / A_p) / √A_max = √A_max / A_p` | 4.3.2: "the cell-portal aspect ratio was now divided by the square root of the projected cell area" | 1/length |
 //! | `volume`  | `refined · (V_min / V_max)^{1/3}` | 4.3.3 (our reading, below) | 1/length |
+//! | `clearance` | `min(peak_a, peak_b) / saddle` (clearance engine) | ours | none |
+//! | `aperture` | as `clearance`, plus the aperture gate ([`crate::decimate::clearance::ApertureGate`]) | ours | none |
 //!
 //! `A_p` is the summed area of all portal pieces between the two cells (4.1.4: "we sum the
 //! areas of the involved portals"); `A_max` the larger of the two cells' projected areas on
@@ -91,6 +93,10 @@ pub trait Heuristic: Send + Sync {
     fn engine(&self) -> Engine {
         Engine::Projected
     }
+    /// The clearance engine's aperture gate, if the heuristic has one.
+    fn aperture_gate(&self) -> Option<crate::decimate::clearance::ApertureGate> {
+        None
+    }
 }
 
 /// The registration list: variant (its lower-case name is the serde name and must equal
@@ -125,6 +131,7 @@ heuristics! {
     Refined => refined::Refined,
     Volume => volume::VolumeRatio,
     Clearance => clearance::Clearance,
+    Aperture => aperture::Aperture,
 }
 
 impl HeuristicKind {
@@ -216,7 +223,7 @@ mod tests {
         assert!("nope".parse::<HeuristicKind>().is_err());
         assert_eq!(
             HeuristicKind::parse("nope").unwrap_err().to_string(),
-            "unknown heuristic \"nope\"; use aspect, refined, volume or clearance"
+            "unknown heuristic \"nope\"; use aspect, refined, volume, clearance or aperture"
         );
         for h in HeuristicKind::ALL {
             assert_eq!(serde_json::to_string(&h).unwrap(), format!("\"{h}\""));

@@ -1,0 +1,200 @@
+//! Diagnostics of the clearance merge on suite cases: every pair the merge looks at that
+//! joins two true rooms (and the intra-room pairs of high persistence), with persistence,
+//! portal area and the components' projected sections.
+//!
+//! `cargo run --release --example diag_rooms -- [tune|report] [family,..] [gate_from gate_ratio]`
+
+use portalfind::decimate::clearance::{ApertureGate, trace};
+use portalfind::decimate::{HeuristicKind, Settings, StopRule};
+use portalfind::experiment::eval::locate_in_complex;
+use portalfind::suite::{self, Half};
+use std::collections::BTreeSet;
+
+fn find(p: &mut [usize], mut x: usize) -> usize {
+    while p[x] != x {
+        p[x] = p[p[x]];
+        x = p[x];
+    }
+    x
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let half = match args.get(1).map(String::as_str) {
+        Some("report") => Half::Report,
+        _ => Half::Tune,
+    };
+    let fams: Vec<String> = args
+        .get(2)
+        .map(|s| s.split(',').map(str::to_string).collect())
+        .unwrap_or_default();
+    let gate = match (args.get(3), args.get(4), args.get(5)) {
+        (Some(a), Some(b), Some(c)) => Some(ApertureGate {
+            from: a.parse().unwrap(),
+            ratio: b.parse().unwrap(),
+            ball: c.parse().unwrap(),
+        }),
+        _ => None,
+    };
+    let score_only = std::env::var("SCORE").is_ok();
+    let ratio: f64 = std::env::var("RATIO").ok().and_then(|r| r.parse().ok()).unwrap_or(1.8);
+    let (mut tot, mut iso) = (0, 0);
+    for case in suite::suite() {
+        if case.half != half || (!fams.is_empty() && !fams.iter().any(|f| *f == case.family.to_string())) {
+            continue;
+        }
+        let model = case.load().unwrap();
+        let cx = portalfind::pipeline::complex_of_unchecked(&model).unwrap();
+        let settings = Settings {
+            heuristic: HeuristicKind::Clearance,
+            stop: StopRule::Threshold(if score_only { ratio } else { 4.0 }),
+            ..Settings::default()
+        };
+        let (dec, steps) = trace(&cx, &settings, gate);
+        if score_only {
+            let a = portalfind::suite::metrics::score(&cx, &dec.partition, &case.truth, &Default::default());
+            tot += a.rooms;
+            iso += a.rooms_isolated;
+            println!(
+                "{:32} rooms {:2} isolated {:2} final {:4} P {:.3} R {:.3} kept {}",
+                case.name,
+                a.rooms,
+                a.rooms_isolated,
+                a.final_cells,
+                a.precision_micro,
+                a.recall_micro,
+                steps.iter().filter(|s| s.kept).count()
+            );
+            if std::env::var("SPLITS").is_ok() {
+                let cells: Vec<BTreeSet<usize>> = case
+                    .truth
+                    .rooms
+                    .iter()
+                    .map(|r| {
+                        locate_in_complex(&cx, &r.samples)
+                            .into_iter()
+                            .flatten()
+                            .filter_map(|c| dec.partition.cell_of(c))
+                            .collect()
+                    })
+                    .collect();
+                let ports = dec.partition.portals(&cx);
+                for (i, cs) in cells.iter().enumerate() {
+                    if cs.len() < 2 {
+                        continue;
+                    }
+                    println!("   room {} split into {:?}", case.truth.rooms[i].name, cs);
+                    for mp in &ports {
+                        let (x, y) = (dec.partition.cell_of(mp.cells[0]), dec.partition.cell_of(mp.cells[1]));
+                        if x.is_some_and(|x| cs.contains(&x)) && y.is_some_and(|y| cs.contains(&y)) {
+                            let mut lo = [f64::MAX; 3];
+                            let mut hi = [f64::MIN; 3];
+                            for q in &mp.pieces {
+                                for v in &q.verts {
+                                    for k in 0..3 {
+                                        lo[k] = lo[k].min(v[k]);
+                                        hi[k] = hi[k].max(v[k]);
+                                    }
+                                }
+                            }
+                            println!(
+                                "     portal {:?} area {:.2} pieces {} normal {:.2?} bbox {:.2?}..{:.2?}",
+                                [x, y],
+                                mp.area,
+                                mp.pieces.len(),
+                                mp.mean_normal,
+                                lo,
+                                hi
+                            );
+                        }
+                    }
+                    if let portalfind::suite::Membership::Boxes { rooms, .. } = &case.truth.membership {
+                        println!("     room boxes {:?}", rooms[i]);
+                    }
+                }
+            }
+            continue;
+        }
+        let n = cx.cells.len();
+        let mut parent: Vec<usize> = (0..n).collect();
+        let mut rooms: Vec<BTreeSet<usize>> = vec![BTreeSet::new(); n];
+        for (i, r) in case.truth.rooms.iter().enumerate() {
+            for c in locate_in_complex(&cx, &r.samples).into_iter().flatten() {
+                rooms[c.idx()].insert(i);
+            }
+        }
+        println!(
+            "== {} ({} rooms, leaks {})",
+            case.name,
+            case.truth.rooms.len(),
+            cx.leaks.len()
+        );
+        for s in &steps {
+            let (a, b) = (find(&mut parent, s.a.idx()), find(&mut parent, s.b.idx()));
+            let (ra, rb) = (rooms[a].clone(), rooms[b].clone());
+            let ratio = s.projected[0].min(s.projected[1]) / s.portal_area;
+            let big = s.projected[0].max(s.projected[1]) / s.portal_area;
+            let join = !ra.is_empty() && !rb.is_empty() && ra.is_disjoint(&rb);
+            if join || (s.weight >= 1.1 && s.weight < 1.8) {
+                let what = if join {
+                    let d = case.truth.doorways.iter().find(|d| {
+                        ra.contains(&d.rooms[0]) && rb.contains(&d.rooms[1])
+                            || ra.contains(&d.rooms[1]) && rb.contains(&d.rooms[0])
+                    });
+                    let dims = d.map(|d| {
+                        let p = &d.polygon;
+                        let l = |i: usize, j: usize| {
+                            ((p[i][0] - p[j][0]).powi(2) + (p[i][1] - p[j][1]).powi(2) + (p[i][2] - p[j][2]).powi(2))
+                                .sqrt()
+                        };
+                        if p.len() == 4 {
+                            format!("{:.2}x{:.2}", l(0, 1), l(1, 2))
+                        } else {
+                            format!("{}-gon", p.len())
+                        }
+                    });
+                    let names = |r: &BTreeSet<usize>| {
+                        r.iter()
+                            .map(|&i| case.truth.rooms[i].name.clone())
+                            .collect::<Vec<_>>()
+                            .join("+")
+                    };
+                    format!(
+                        "JOIN [{}] | [{}] door {}",
+                        names(&ra),
+                        names(&rb),
+                        dims.unwrap_or("none".into())
+                    )
+                } else if ra.is_empty() || rb.is_empty() {
+                    "frag".to_string()
+                } else {
+                    "intra".to_string()
+                };
+                println!(
+                    "  w {:.3} peaks {:.2}/{:.2} saddle {:.2} Ap {:.2} sec {:.1}/{:.1} min/Ap {:.2} max/Ap {:.2} vol {:.1}/{:.1} {} {}",
+                    s.weight,
+                    s.peaks[0],
+                    s.peaks[1],
+                    s.saddle,
+                    s.portal_area,
+                    s.projected[0],
+                    s.projected[1],
+                    ratio,
+                    big,
+                    s.volumes[0],
+                    s.volumes[1],
+                    if s.kept { "KEPT" } else { "" },
+                    what
+                );
+            }
+            if !s.kept {
+                parent[b] = a;
+                let rb = std::mem::take(&mut rooms[b]);
+                rooms[a].extend(rb);
+            }
+        }
+    }
+    if score_only {
+        println!("TOTAL isolated {iso}/{tot}");
+    }
+}
