@@ -55,6 +55,7 @@ pub mod buildings;
 pub mod caverns;
 pub mod fuzz;
 pub mod metrics;
+pub mod scale;
 pub mod stress;
 pub mod thesis;
 mod util;
