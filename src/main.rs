@@ -419,6 +419,18 @@ enum BenchCmd {
         #[arg(long, default_value = "results/stress")]
         out: PathBuf,
     },
+    /// Scale (issue 17): `gen rooms` buildings of about 10k to 1M triangles, each through
+    /// `run` at defaults and `tetra --no-validate` in fresh processes; wall time, peak memory,
+    /// run/tetra ratio, per-stage seconds, growth exponents. Writes scale.csv, scale.json,
+    /// table.md and scale.svg (log-log) into --out.
+    Scale {
+        /// Skip sizes above this many triangles (974,080 is the largest).
+        #[arg(long, default_value_t = 1_000_000)]
+        max_triangles: usize,
+        /// Output directory.
+        #[arg(long, default_value = "results/scale")]
+        out: PathBuf,
+    },
     /// Run one case in this process and print it as JSON (what `bench delaunay` runs in a
     /// child process per case). With the environment variable PF_BENCH_STATS=1 it also
     /// prints the per-phase times and walk/cavity statistics to stderr.
@@ -627,6 +639,18 @@ fn run(cli: Cli) -> Result<()> {
                 out,
                 shrink_budget,
             } => bench_fuzz(target, seconds, seed, &corpus, &finds, &out, shrink_budget),
+            BenchCmd::Scale { max_triangles, out } => {
+                let exe = std::env::current_exe()?;
+                let work = std::env::temp_dir().join(format!("portalfind-scale-{}", std::process::id()));
+                let rep = portalfind::suite::scale::run(&exe, max_triangles, &work, &mut |l| eprintln!("{l}"))
+                    .context("scale benchmark failed")?;
+                let _ = std::fs::remove_dir_all(&work);
+                portalfind::suite::scale::write_all(&rep, &out)
+                    .with_context(|| format!("cannot write into {}", out.display()))?;
+                println!("{}", portalfind::suite::scale::table(&rep));
+                println!("wrote {}/{{scale.csv,scale.json,table.md,scale.svg}}", out.display());
+                Ok(())
+            }
             BenchCmd::Stress { quick, out } => {
                 let rows = portalfind::suite::stress::run(quick, &mut |what| eprintln!("{what}"));
                 portalfind::suite::stress::write_all(&rows, &out)

@@ -7,6 +7,10 @@ use serde::{Deserialize, Serialize};
 use super::plane::{Classification, Classifier, Plane, Side};
 use super::polygon::{ConvexPolygon, FacePlane, crossing, walk_split};
 use super::vec::{Key, add, cross, dot, key, scale, sub};
+
+/// Up to this many vertex occurrences over all faces, [`ConvexPolyhedron::vertices`] scans
+/// instead of hashing.
+const SMALL_OCCURRENCES: usize = 96;
 use crate::predicates::{P3, orient3d};
 use crate::tolerances::Tolerances;
 
@@ -150,8 +154,24 @@ impl ConvexPolyhedron {
 
     /// Distinct vertices (exact coordinates), in order of first appearance.
     pub fn vertices(&self) -> Vec<P3> {
-        let mut seen = HashSet::new();
         let mut out = vec![];
+        let occurrences: usize = self.faces.iter().map(|f| f.verts.len()).sum();
+        if occurrences <= SMALL_OCCURRENCES {
+            // Most cells are tetrahedra or a few cuts of one: a scan of the few distinct
+            // vertices is far cheaper than hashing every occurrence (same first-seen order).
+            let mut keys: Vec<Key> = Vec::with_capacity(occurrences);
+            for f in &self.faces {
+                for v in &f.verts {
+                    let k = key(v);
+                    if !keys.contains(&k) {
+                        keys.push(k);
+                        out.push(*v);
+                    }
+                }
+            }
+            return out;
+        }
+        let mut seen = HashSet::new();
         for f in &self.faces {
             for v in &f.verts {
                 if seen.insert(key(v)) {
@@ -554,7 +574,8 @@ impl ConvexPolyhedron {
         if self.faces.len() < 4 {
             return Err(format!("only {} faces", self.faces.len()));
         }
-        let mut edges: HashMap<(Key, Key), u32> = HashMap::new();
+        // Directed edges, sorted: a count is the length of an equal run (no hashing).
+        let mut edges: Vec<(Key, Key)> = Vec::with_capacity(self.faces.iter().map(|f| f.verts.len()).sum());
         for (fi, f) in self.faces.iter().enumerate() {
             let n = f.verts.len();
             if n < 3 {
@@ -565,19 +586,24 @@ impl ConvexPolyhedron {
                 if a == b {
                     return Err(format!("face {fi} repeats vertex {:?}", f.verts[k]));
                 }
-                *edges.entry((a, b)).or_default() += 1;
+                edges.push((a, b));
             }
         }
+        edges.sort_unstable();
+        let count = |e: (Key, Key)| {
+            let lo = edges.partition_point(|x| *x < e);
+            edges[lo..].iter().take_while(|x| **x == e).count()
+        };
         // In face order (not the map's), so the first violation reported is deterministic.
         for f in &self.faces {
             let n = f.verts.len();
             for k in 0..n {
                 let (a, b) = (key(&f.verts[k]), key(&f.verts[(k + 1) % n]));
-                let c = edges[&(a, b)];
+                let c = count((a, b));
                 if c != 1 {
                     return Err(format!("directed edge {a:?}->{b:?} used {c} times"));
                 }
-                if edges.get(&(b, a)) != Some(&1) {
+                if count((b, a)) != 1 {
                     return Err(format!("edge {a:?}->{b:?} has no reverse (open or T-junction)"));
                 }
             }
@@ -653,6 +679,99 @@ mod tests {
     use super::super::testutil::{Frame, Rng, frames};
     use super::super::vec::norm;
     use super::*;
+
+    /// The hashing versions `vertices` and `check` had before they scanned and sorted.
+    fn vertices_hashed(p: &ConvexPolyhedron) -> Vec<P3> {
+        let mut seen = HashSet::new();
+        let mut out = vec![];
+        for f in &p.faces {
+            for v in &f.verts {
+                if seen.insert(key(v)) {
+                    out.push(*v);
+                }
+            }
+        }
+        out
+    }
+
+    fn edge_verdict_hashed(p: &ConvexPolyhedron) -> Result<(), String> {
+        let mut edges: HashMap<(Key, Key), u32> = HashMap::new();
+        for (fi, f) in p.faces.iter().enumerate() {
+            let n = f.verts.len();
+            if n < 3 {
+                return Err(format!("face {fi} has {n} vertices"));
+            }
+            for k in 0..n {
+                let (a, b) = (key(&f.verts[k]), key(&f.verts[(k + 1) % n]));
+                if a == b {
+                    return Err(format!("face {fi} repeats vertex {:?}", f.verts[k]));
+                }
+                *edges.entry((a, b)).or_default() += 1;
+            }
+        }
+        for f in &p.faces {
+            let n = f.verts.len();
+            for k in 0..n {
+                let (a, b) = (key(&f.verts[k]), key(&f.verts[(k + 1) % n]));
+                let c = edges[&(a, b)];
+                if c != 1 {
+                    return Err(format!("directed edge {a:?}->{b:?} used {c} times"));
+                }
+                if edges.get(&(b, a)) != Some(&1) {
+                    return Err(format!("edge {a:?}->{b:?} has no reverse (open or T-junction)"));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    #[test]
+    fn scanned_vertices_and_sorted_edges_match_the_hashed_versions() {
+        let tol = Tolerances::for_scale(3f64.sqrt());
+        let mut rng = Rng::new(17);
+        let (mut small, mut large) = (0, 0);
+        for _ in 0..60 {
+            let mut p =
+                ConvexPolyhedron::tetrahedron(&[0.0, 0.0, 0.0], &[1.0, 0.0, 0.0], &[0.0, 1.0, 0.0], &[0.0, 0.0, 1.0]);
+            for _ in 0..40 {
+                let n = rng.unit();
+                let c = [0.25 + 0.1 * rng.f64(), 0.25 + 0.1 * rng.f64(), 0.25 + 0.1 * rng.f64()];
+                let plane = Plane::new(n, dot(&n, &c) + 0.02 + 0.1 * rng.f64());
+                if let Some(sp) = p.split(&plane, &tol, 9) {
+                    p = if rng.f64() < 0.5 { sp.front } else { sp.back };
+                }
+                let occ: usize = p.faces.iter().map(|f| f.verts.len()).sum();
+                if occ <= SMALL_OCCURRENCES {
+                    small += 1;
+                } else {
+                    large += 1;
+                }
+                assert_eq!(p.vertices(), vertices_hashed(&p));
+                // `check`'s edge verdict equals the hashed one on the piece and on broken
+                // copies: a face dropped, a face doubled, a face reversed.
+                let edge_part = |q: &ConvexPolyhedron| match q.check(&tol) {
+                    Err(e) if e.contains("edge") || e.contains("face ") => Err(e),
+                    _ => Ok(()),
+                };
+                assert_eq!(edge_part(&p), edge_verdict_hashed(&p));
+                let mut broken = vec![p.clone(), p.clone(), p.clone()];
+                broken[0].faces.pop();
+                broken[0].tags.pop();
+                let f0 = broken[1].faces[0].clone();
+                broken[1].faces.push(f0);
+                broken[1].tags.push(0);
+                broken[2].faces[0].verts.reverse();
+                for b in &broken {
+                    if b.faces.len() >= 4 {
+                        assert_eq!(edge_part(b), edge_verdict_hashed(b));
+                        assert!(edge_verdict_hashed(b).is_err());
+                    }
+                }
+            }
+        }
+        // The hashing path is the old code; the scan must have run.
+        assert!(small > 0, "the scanning path ran ({small} small, {large} large pieces)");
+    }
 
     fn rel(a: f64, b: f64) -> f64 {
         (a - b).abs() / b.abs().max(1e-300)

@@ -56,6 +56,7 @@ pub mod caverns;
 pub mod estimators;
 pub mod fuzz;
 pub mod metrics;
+pub mod scale;
 pub mod stress;
 pub mod thesis;
 mod util;

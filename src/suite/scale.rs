@@ -1,0 +1,441 @@
+//! The scale benchmark (issue 17; `portalfind bench scale`): `gen rooms`-style buildings
+//! from about 10k to about 1M triangles, each run through `portalfind run` at defaults and
+//! `portalfind tetra --no-validate` in fresh child processes of the given executable. Per
+//! size: wall time and peak resident memory of each child (`wait4`'s `ru_maxrss`, the
+//! child's own high-water mark), the run's per-stage seconds as it printed them, the ratio
+//! run / tetra (both measured in the same go, since a shared machine drifts), and over all
+//! sizes the growth exponents of run time and peak memory (log-log least squares).
+//! Writes `scale.csv`, `scale.json`, `table.md` and `scale.svg` (log-log plot).
+
+use crate::generate::scenes::room_grid;
+use crate::model::write::{obj_text, write_atomic};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+/// Room grids (nx = ny) at tessellation 8: about 9.9k, 31k, 103k, 244k, 477k and 974k
+/// triangles.
+pub const GRIDS: [usize; 6] = [4, 7, 13, 20, 28, 40];
+/// Tessellation of every size (door edges need a multiple of 8).
+pub const TESS: usize = 8;
+
+/// One size.
+#[derive(Clone, Debug, Serialize)]
+pub struct ScaleRow {
+    pub nx: usize,
+    pub ny: usize,
+    pub tess: usize,
+    pub triangles: usize,
+    /// Wall seconds of the `run` child (spawn to exit).
+    pub run_s: f64,
+    /// Peak resident memory of the `run` child, MiB.
+    pub run_peak_mib: f64,
+    /// Wall seconds of the `tetra --no-validate` child (spawn to exit, load included).
+    pub tetra_s: f64,
+    /// Peak resident memory of the `tetra` child, MiB.
+    pub tetra_peak_mib: f64,
+    /// `run_s / tetra_s`.
+    pub ratio: f64,
+    /// The run's stage report (name, seconds), as it printed it.
+    pub stages: Vec<(String, f64)>,
+    /// The run's "final cells" line.
+    pub final_cells: Option<usize>,
+}
+
+/// All sizes and the fitted exponents.
+#[derive(Clone, Debug, Serialize)]
+pub struct ScaleReport {
+    pub rows: Vec<ScaleRow>,
+    /// Slope of log(run_s) against log(triangles).
+    pub time_exponent: Option<f64>,
+    /// Slope of log(run_peak_mib) against log(triangles).
+    pub memory_exponent: Option<f64>,
+}
+
+/// Least-squares slope of log y against log x (None for fewer than two points).
+pub fn loglog_slope(pts: &[(f64, f64)]) -> Option<f64> {
+    let p: Vec<(f64, f64)> = pts
+        .iter()
+        .filter(|(x, y)| *x > 0.0 && *y > 0.0)
+        .map(|(x, y)| (x.ln(), y.ln()))
+        .collect();
+    if p.len() < 2 {
+        return None;
+    }
+    let n = p.len() as f64;
+    let mx = p.iter().map(|q| q.0).sum::<f64>() / n;
+    let my = p.iter().map(|q| q.1).sum::<f64>() / n;
+    let sxy: f64 = p.iter().map(|q| (q.0 - mx) * (q.1 - my)).sum();
+    let sxx: f64 = p.iter().map(|q| (q.0 - mx) * (q.0 - mx)).sum();
+    (sxx > 0.0).then(|| sxy / sxx)
+}
+
+/// A finished child: wall seconds, peak RSS (MiB), exit success, stdout.
+struct Child {
+    secs: f64,
+    peak_mib: f64,
+    ok: bool,
+    stdout: String,
+}
+
+/// Runs `exe args` to completion; the peak memory is the child's own (`wait4`).
+fn run_child(exe: &Path, args: &[&std::ffi::OsStr]) -> std::io::Result<Child> {
+    use std::io::Read;
+    let t0 = Instant::now();
+    let mut child = Command::new(exe)
+        .args(args)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()?;
+    let mut stdout = String::new();
+    if let Some(mut out) = child.stdout.take() {
+        out.read_to_string(&mut stdout)?;
+    }
+    let pid = child.id() as libc::pid_t;
+    let mut status: libc::c_int = 0;
+    // SAFETY: a zeroed rusage is a valid out-parameter; `pid` is our own unwaited child.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    let r = unsafe { libc::wait4(pid, &mut status, 0, &mut usage) };
+    let secs = t0.elapsed().as_secs_f64();
+    if r != pid {
+        return Err(std::io::Error::last_os_error());
+    }
+    let ok = libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0;
+    // Linux reports ru_maxrss in KiB.
+    Ok(Child {
+        secs,
+        peak_mib: usage.ru_maxrss as f64 / 1024.0,
+        ok,
+        stdout,
+    })
+}
+
+/// The stage table `run` prints: rows between the "stage seconds" header and "total".
+pub fn parse_stages(stdout: &str) -> Vec<(String, f64)> {
+    let mut out = Vec::new();
+    let mut inside = false;
+    for line in stdout.lines() {
+        let t = line.trim_end();
+        if t.starts_with("stage") && t.ends_with("seconds") {
+            inside = true;
+            continue;
+        }
+        if !inside {
+            continue;
+        }
+        let Some((name, secs)) = t.rsplit_once(' ') else { break };
+        let Ok(secs) = secs.parse::<f64>() else { break };
+        let name = name.trim().to_string();
+        if name == "total" {
+            break;
+        }
+        out.push((name, secs));
+    }
+    out
+}
+
+fn final_cells(stdout: &str) -> Option<usize> {
+    let line = stdout.lines().find(|l| l.starts_with("final cells"))?;
+    line.split_whitespace().last()?.parse().ok()
+}
+
+/// Runs every grid of [`GRIDS`] whose model has at most `max_triangles` triangles.
+/// `exe` is the portalfind executable; `work` a scratch directory (models and run
+/// outputs; each size's files are removed after it ran). `log` gets progress lines.
+pub fn run(exe: &Path, max_triangles: usize, work: &Path, log: &mut dyn FnMut(&str)) -> std::io::Result<ScaleReport> {
+    std::fs::create_dir_all(work)?;
+    let mut rows = Vec::new();
+    for &n in &GRIDS {
+        let (s, _) = room_grid(n, n, TESS);
+        let triangles: usize = s.polygons.iter().map(|p| p.len() - 2).sum();
+        if triangles > max_triangles {
+            continue;
+        }
+        let model = work.join(format!("rooms_{n}x{n}_t{TESS}.obj"));
+        let header = format!("portalfind gen rooms --nx {n} --ny {n} --tess {TESS}");
+        write_atomic(&model, obj_text(&header, &s.vertices, &s.polygons).as_bytes())?;
+        drop(s);
+        let out_dir: PathBuf = work.join(format!("run_{n}"));
+        log(&format!("{n}x{n} rooms, {triangles} triangles: tetra ..."));
+        let tetra = run_child(exe, &["tetra".as_ref(), "--no-validate".as_ref(), model.as_os_str()])?;
+        log(&format!(
+            "  tetra {:.2} s, {:.0} MiB; run ...",
+            tetra.secs, tetra.peak_mib
+        ));
+        let run = run_child(
+            exe,
+            &["run".as_ref(), model.as_os_str(), "--out".as_ref(), out_dir.as_os_str()],
+        )?;
+        log(&format!("  run {:.2} s, {:.0} MiB", run.secs, run.peak_mib));
+        if !tetra.ok || !run.ok {
+            return Err(std::io::Error::other(format!(
+                "a child failed on {} (tetra ok: {}, run ok: {})",
+                model.display(),
+                tetra.ok,
+                run.ok
+            )));
+        }
+        let _ = std::fs::remove_file(&model);
+        let _ = std::fs::remove_dir_all(&out_dir);
+        rows.push(ScaleRow {
+            nx: n,
+            ny: n,
+            tess: TESS,
+            triangles,
+            run_s: run.secs,
+            run_peak_mib: run.peak_mib,
+            tetra_s: tetra.secs,
+            tetra_peak_mib: tetra.peak_mib,
+            ratio: run.secs / tetra.secs,
+            stages: parse_stages(&run.stdout),
+            final_cells: final_cells(&run.stdout),
+        });
+    }
+    let time_exponent = loglog_slope(&rows.iter().map(|r| (r.triangles as f64, r.run_s)).collect::<Vec<_>>());
+    let memory_exponent = loglog_slope(
+        &rows
+            .iter()
+            .map(|r| (r.triangles as f64, r.run_peak_mib))
+            .collect::<Vec<_>>(),
+    );
+    Ok(ScaleReport {
+        rows,
+        time_exponent,
+        memory_exponent,
+    })
+}
+
+/// Stage names in first-seen order over all rows.
+fn stage_names(rows: &[ScaleRow]) -> Vec<String> {
+    let mut names: Vec<String> = Vec::new();
+    for r in rows {
+        for (n, _) in &r.stages {
+            if !names.contains(n) {
+                names.push(n.clone());
+            }
+        }
+    }
+    names
+}
+
+fn stage_secs(r: &ScaleRow, name: &str) -> Option<f64> {
+    r.stages.iter().find(|(n, _)| n == name).map(|s| s.1)
+}
+
+/// The Markdown table: one row per size, then the stage seconds per size, then exponents.
+pub fn table(rep: &ScaleReport) -> String {
+    let mut s = String::new();
+    s.push_str("| rooms | triangles | run s | run peak MiB | tetra s | tetra peak MiB | run / tetra | final cells |\n");
+    s.push_str("|---|---:|---:|---:|---:|---:|---:|---:|\n");
+    for r in &rep.rows {
+        s.push_str(&format!(
+            "| {}×{} | {} | {:.2} | {:.0} | {:.2} | {:.0} | {:.1} | {} |\n",
+            r.nx,
+            r.ny,
+            r.triangles,
+            r.run_s,
+            r.run_peak_mib,
+            r.tetra_s,
+            r.tetra_peak_mib,
+            r.ratio,
+            r.final_cells.map_or("-".into(), |c| c.to_string())
+        ));
+    }
+    let f = |e: Option<f64>| e.map_or("-".to_string(), |v| format!("{v:.3}"));
+    s.push_str(&format!(
+        "\nGrowth exponent (log-log least squares over the sizes above): run time {}, run peak memory {}.\n",
+        f(rep.time_exponent),
+        f(rep.memory_exponent)
+    ));
+    let names = stage_names(&rep.rows);
+    if !names.is_empty() {
+        s.push_str("\nStage seconds as each run printed them:\n\n| stage |");
+        for r in &rep.rows {
+            s.push_str(&format!(" {} |", r.triangles));
+        }
+        s.push_str("\n|---|");
+        for _ in &rep.rows {
+            s.push_str("---:|");
+        }
+        s.push('\n');
+        for n in &names {
+            s.push_str(&format!("| {n} |"));
+            for r in &rep.rows {
+                s.push_str(&stage_secs(r, n).map_or(" - |".into(), |v| format!(" {v:.3} |")));
+            }
+            s.push('\n');
+        }
+    }
+    s
+}
+
+fn csv_text(rep: &ScaleReport) -> String {
+    let names = stage_names(&rep.rows);
+    let mut s = String::from("nx,ny,tess,triangles,run_s,run_peak_mib,tetra_s,tetra_peak_mib,ratio,final_cells");
+    for n in &names {
+        s.push_str(&format!(",\"stage: {n}\""));
+    }
+    s.push('\n');
+    for r in &rep.rows {
+        s.push_str(&format!(
+            "{},{},{},{},{:.4},{:.1},{:.4},{:.1},{:.3},{}",
+            r.nx,
+            r.ny,
+            r.tess,
+            r.triangles,
+            r.run_s,
+            r.run_peak_mib,
+            r.tetra_s,
+            r.tetra_peak_mib,
+            r.ratio,
+            r.final_cells.map_or(String::new(), |c| c.to_string())
+        ));
+        for n in &names {
+            s.push_str(&stage_secs(r, n).map_or(",".into(), |v| format!(",{v:.4}")));
+        }
+        s.push('\n');
+    }
+    s
+}
+
+const FONTS: [&str; 3] = [
+    "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
+    "/usr/share/fonts/TTF/DejaVuSans.ttf",
+    "/usr/share/fonts/truetype/liberation/LiberationSans-Regular.ttf",
+];
+
+/// The log-log plot: run and tetra seconds and run peak GiB against triangles.
+fn plot(rep: &ScaleReport, path: &Path) -> Result<(), String> {
+    use plotters::prelude::*;
+    let text = std::env::var("PORTALFIND_FONT")
+        .ok()
+        .into_iter()
+        .chain(FONTS.iter().map(|s| s.to_string()))
+        .any(|p| {
+            std::fs::read(&p).ok().is_some_and(|b| {
+                let b: &'static [u8] = Box::leak(b.into_boxed_slice());
+                plotters::style::register_font("sans-serif", FontStyle::Normal, b).is_ok()
+            })
+        });
+    let e = |e: &dyn std::fmt::Debug| format!("{e:?}");
+    let root = SVGBackend::new(path, (900, 600)).into_drawing_area();
+    root.fill(&WHITE).map_err(|x| e(&x))?;
+    let rows = &rep.rows;
+    if rows.is_empty() {
+        return root.present().map_err(|x| e(&x));
+    }
+    let xs: Vec<f64> = rows.iter().map(|r| r.triangles as f64).collect();
+    let ys: Vec<f64> = rows
+        .iter()
+        .flat_map(|r| [r.run_s, r.tetra_s, r.run_peak_mib / 1024.0])
+        .filter(|v| *v > 0.0)
+        .collect();
+    let (xlo, xhi) = (
+        xs.iter().cloned().fold(f64::INFINITY, f64::min) / 1.3,
+        xs.iter().cloned().fold(0.0, f64::max) * 1.3,
+    );
+    let (ylo, yhi) = (
+        ys.iter().cloned().fold(f64::INFINITY, f64::min) / 1.5,
+        ys.iter().cloned().fold(0.0, f64::max) * 1.5,
+    );
+    let mut b = ChartBuilder::on(&root);
+    b.margin(20);
+    if text {
+        b.caption(
+            "portalfind run at defaults vs triangles (gen rooms, log-log)",
+            ("sans-serif", 20),
+        )
+        .x_label_area_size(45)
+        .y_label_area_size(60);
+    }
+    let mut chart = b
+        .build_cartesian_2d((xlo..xhi).log_scale(), (ylo..yhi).log_scale())
+        .map_err(|x| e(&x))?;
+    if text {
+        chart
+            .configure_mesh()
+            .x_desc("triangles")
+            .y_desc("seconds / GiB")
+            .draw()
+            .map_err(|x| e(&x))?;
+    }
+    type Series = (&'static str, RGBColor, Vec<(f64, f64)>);
+    let series: [Series; 3] = [
+        (
+            "run wall s",
+            BLUE,
+            rows.iter().map(|r| (r.triangles as f64, r.run_s)).collect(),
+        ),
+        (
+            "tetra wall s",
+            GREEN,
+            rows.iter().map(|r| (r.triangles as f64, r.tetra_s)).collect(),
+        ),
+        (
+            "run peak GiB",
+            RED,
+            rows.iter()
+                .map(|r| (r.triangles as f64, r.run_peak_mib / 1024.0))
+                .collect(),
+        ),
+    ];
+    for (name, color, pts) in series {
+        let s = chart
+            .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))
+            .map_err(|x| e(&x))?;
+        if text {
+            s.label(name)
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+        }
+        chart
+            .draw_series(pts.iter().map(|&p| Circle::new(p, 4, color.filled())))
+            .map_err(|x| e(&x))?;
+    }
+    if text {
+        chart
+            .configure_series_labels()
+            .background_style(WHITE)
+            .border_style(BLACK)
+            .position(SeriesLabelPosition::UpperLeft)
+            .draw()
+            .map_err(|x| e(&x))?;
+    }
+    root.present().map_err(|x| e(&x))
+}
+
+/// Writes scale.csv, scale.json, table.md and scale.svg into `dir`.
+pub fn write_all(rep: &ScaleReport, dir: &Path) -> std::io::Result<()> {
+    std::fs::create_dir_all(dir)?;
+    write_atomic(&dir.join("scale.csv"), csv_text(rep).as_bytes())?;
+    let json = serde_json::to_string_pretty(rep).map_err(std::io::Error::other)?;
+    write_atomic(&dir.join("scale.json"), json.as_bytes())?;
+    write_atomic(&dir.join("table.md"), table(rep).as_bytes())?;
+    plot(rep, &dir.join("scale.svg")).map_err(std::io::Error::other)?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn slope_of_a_power_law() {
+        let pts: Vec<(f64, f64)> = [1e4, 1e5, 1e6].iter().map(|&x: &f64| (x, 3.0 * x.powf(1.07))).collect();
+        assert!((loglog_slope(&pts).unwrap() - 1.07).abs() < 1e-9);
+        assert_eq!(loglog_slope(&pts[..1]), None);
+    }
+
+    #[test]
+    fn stage_table_is_parsed() {
+        let out = "loaded x in 0.1 s\nstage                 seconds\nload model    0.096\ndecimation: collapses   0.205\ntotal   2.447\n\nfinal cells      16\n";
+        assert_eq!(
+            parse_stages(out),
+            vec![
+                ("load model".to_string(), 0.096),
+                ("decimation: collapses".to_string(), 0.205)
+            ]
+        );
+        assert_eq!(final_cells(out), Some(16));
+    }
+}
