@@ -41,6 +41,52 @@ pub const FRAMES_FILE: &str = "walkthrough.csv";
 pub const PLOT_FILE: &str = "walkthrough.png";
 /// Averages and speedups.
 pub const TABLE_FILE: &str = "walkthrough.md";
+/// Per frame of the tilted walkthrough.
+pub const TILTED_FRAMES_FILE: &str = "walkthrough_tilted.csv";
+/// Its plot.
+pub const TILTED_PLOT_FILE: &str = "walkthrough_tilted.png";
+
+/// One row per frame: position, cell, the five methods' triangles, and per window
+/// representation triangles, portals, overdraw, clips and clip vertices.
+fn write_frames(tmp: &Path, names: &[String; 5], frames: &[Frame]) -> Result<(), csv::Error> {
+    let mut w = csv::Writer::from_path(tmp)?;
+    let mut head = vec!["frame".to_string(), "x".into(), "y".into(), "z".into(), "cell".into()];
+    head.extend(names.iter().cloned());
+    head.extend(["portals_traversed".into(), "cells_drawn".into(), "quads_k".into()]);
+    for r in walk::REPS {
+        for c in ["triangles", "portals", "overdraw", "clips", "clip_vertices"] {
+            head.push(format!("{r}_{c}"));
+        }
+    }
+    w.write_record(&head)?;
+    for f in frames {
+        let mut row = vec![
+            f.frame.to_string(),
+            f.eye[0].to_string(),
+            f.eye[1].to_string(),
+            f.eye[2].to_string(),
+            f.cell.to_string(),
+            f.frustum.to_string(),
+            f.portal.to_string(),
+            f.portal_rect.to_string(),
+            f.textured_a.to_string(),
+            f.textured_b.to_string(),
+            f.portals_traversed.to_string(),
+            f.cells_drawn.to_string(),
+            f.quads_a.to_string(),
+        ];
+        for k in 0..walk::NREPS {
+            row.push(f.rep_tris[k].to_string());
+            row.push(f.rep_portals[k].to_string());
+            row.push(f.rep_tris[k].saturating_sub(f.rep_tris[0]).to_string());
+            row.push(f.rep_clips[k].to_string());
+            row.push(f.rep_vertices[k].to_string());
+        }
+        w.write_record(&row)?;
+    }
+    w.flush()?;
+    Ok(())
+}
 
 /// What to compute.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -111,6 +157,9 @@ pub struct Evaluation {
     pub report: VisibilityReport,
     /// The walkthrough's summary.
     pub walkthrough: Option<WalkReport>,
+    /// The same path with the camera rolled ([`WalkSettings::tilted_roll_deg`]).
+    #[serde(default)]
+    pub walkthrough_tilted: Option<WalkReport>,
     /// Seconds per stage.
     pub stages: Vec<StageTime>,
 }
@@ -140,6 +189,8 @@ pub struct Output {
     pub cells: Vec<CellRow>,
     /// Per frame (empty without a walkthrough).
     pub frames: Vec<Frame>,
+    /// Per frame of the tilted walkthrough (empty without one).
+    pub frames_tilted: Vec<Frame>,
 }
 
 /// A run re-read from its directory.
@@ -273,6 +324,8 @@ pub fn evaluate_partition(
     }
     let mut walkthrough = None;
     let mut frames = Vec::new();
+    let mut walkthrough_tilted = None;
+    let mut frames_tilted = Vec::new();
     if let Some(ws) = &settings.walkthrough {
         let t0 = Instant::now();
         let scene = walk::Scene {
@@ -286,6 +339,17 @@ pub fn evaluate_partition(
         stages.push(stage("walkthrough", t0));
         walkthrough = Some(w);
         frames = f;
+        if ws.tilted_roll_deg != 0.0 {
+            let t0 = Instant::now();
+            let tilted = WalkSettings {
+                roll_deg: ws.tilted_roll_deg,
+                ..*ws
+            };
+            let (w, f) = walk::walkthrough(&scene, &tilted);
+            stages.push(stage("tilted walkthrough", t0));
+            walkthrough_tilted = Some(w);
+            frames_tilted = f;
+        }
     }
     let cells = partition
         .cells
@@ -310,10 +374,12 @@ pub fn evaluate_partition(
             settings: *settings,
             report,
             walkthrough,
+            walkthrough_tilted,
             stages,
         },
         cells,
         frames,
+        frames_tilted,
     }
 }
 
@@ -351,6 +417,41 @@ pub fn walkthrough_table(w: &WalkReport) -> String {
         s.push_str(&format!(
             "| {} | {:.1} | {} | {:.2} | {:.3} |\n",
             names[k], w.mean[k], w.max[k], w.speedup[k], w.seconds[k]
+        ));
+    }
+    s.push_str(&reps_table(w));
+    s
+}
+
+/// The window representations (exact, rectangle, k-gons): per frame means, overdraw against
+/// the exact window, and operation counts.
+pub fn reps_table(w: &WalkReport) -> String {
+    if w.reps.is_empty() {
+        return String::new();
+    }
+    let ws = w.settings.unwrap_or_default();
+    let nf = w.frames.max(1) as f64;
+    let mut s = format!(
+        "\nWindow representations (camera roll {}°; overdraw = triangles beyond the exact window's):\n\n",
+        ws.roll_deg
+    );
+    s.push_str("| window | mean triangles | max | mean portals | mean overdraw | max overdraw | frames below exact | clips / frame | clip vertices / frame | 2D ops / frame | sphere rejects / frame | culling seconds |\n");
+    s.push_str("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+    for r in &w.reps {
+        s.push_str(&format!(
+            "| {} | {:.1} | {} | {:.2} | {:.2} | {} | {} | {:.0} | {:.0} | {:.0} | {:.1} | {:.3} |\n",
+            r.name,
+            r.mean_triangles,
+            r.max_triangles,
+            r.mean_portals,
+            r.mean_overdraw,
+            r.max_overdraw,
+            r.frames_below_exact,
+            r.ops.plane_clips as f64 / nf,
+            r.ops.vertices as f64 / nf,
+            r.ops.screen_ops as f64 / nf,
+            r.ops.sphere_rejects as f64 / nf,
+            r.seconds
         ));
     }
     s
@@ -399,38 +500,29 @@ pub fn write(dir: &Path, out: &Output, title: &str) -> Result<Vec<PathBuf>, Eval
     if let Some(wr) = &out.evaluation.walkthrough {
         let names = walk::columns(&wr.settings.unwrap_or_default());
         let p = dir.join(FRAMES_FILE);
-        crate::output::write_atomic(&p, |tmp| -> Result<(), csv::Error> {
-            let mut w = csv::Writer::from_path(tmp)?;
-            let mut head = vec!["frame".to_string(), "x".into(), "y".into(), "z".into(), "cell".into()];
-            head.extend(names.iter().cloned());
-            head.extend(["portals_traversed".into(), "cells_drawn".into(), "quads_k".into()]);
-            w.write_record(&head)?;
-            for f in &out.frames {
-                w.write_record([
-                    f.frame.to_string(),
-                    f.eye[0].to_string(),
-                    f.eye[1].to_string(),
-                    f.eye[2].to_string(),
-                    f.cell.to_string(),
-                    f.frustum.to_string(),
-                    f.portal.to_string(),
-                    f.portal_rect.to_string(),
-                    f.textured_a.to_string(),
-                    f.textured_b.to_string(),
-                    f.portals_traversed.to_string(),
-                    f.cells_drawn.to_string(),
-                    f.quads_a.to_string(),
-                ])?;
-            }
-            w.flush()?;
-            Ok(())
-        })?;
+        crate::output::write_atomic(&p, |tmp| write_frames(tmp, &names, &out.frames))?;
         files.push(p);
+        if let Some(wt) = &out.evaluation.walkthrough_tilted {
+            let p = dir.join(TILTED_FRAMES_FILE);
+            crate::output::write_atomic(&p, |tmp| write_frames(tmp, &names, &out.frames_tilted))?;
+            files.push(p);
+            let p = dir.join(TILTED_PLOT_FILE);
+            let t = format!("{title} (camera rolled {}°)", wt.settings.unwrap_or_default().roll_deg);
+            crate::output::write_atomic(&p, |tmp| plot::frames(tmp, &out.frames_tilted, &names, &t))?;
+            files.push(p);
+        }
         let p = dir.join(PLOT_FILE);
         crate::output::write_atomic(&p, |tmp| plot::frames(tmp, &out.frames, &names, title))?;
         files.push(p);
         let p = dir.join(TABLE_FILE);
-        let table = format!("# Walkthrough: {title}\n\n{}", walkthrough_table(wr));
+        let mut table = format!("# Walkthrough: {title}\n\n{}", walkthrough_table(wr));
+        if let Some(wt) = &out.evaluation.walkthrough_tilted {
+            table.push_str(&format!(
+                "\n## Tilted camera (rolled {}°, same path)\n\n{}",
+                wt.settings.unwrap_or_default().roll_deg,
+                walkthrough_table(wt)
+            ));
+        }
         crate::output::write_atomic(&p, |tmp| std::fs::write(tmp, table))?;
         files.push(p);
     }

@@ -24,6 +24,7 @@
 
 pub mod bitset;
 pub mod cost;
+pub mod kgon;
 pub mod prt;
 pub mod pvs;
 pub mod raycast;

@@ -32,6 +32,7 @@
 
 use super::PortalGraph;
 use super::cost::CellPolygons;
+use super::kgon::KgonWindow;
 use crate::CellId;
 use crate::base::vec::{P3, cross, dot, norm, sub};
 use crate::complex::CellComplex;
@@ -57,6 +58,13 @@ pub struct WalkSettings {
     pub up_axis: usize,
     /// Portal depths `k` of the portal-texture runs (portals deeper than `k` are quads).
     pub texture_depths: [usize; 2],
+    /// Camera roll about the view direction, degrees (0: level; the tilted walkthrough of
+    /// the thesis's figure 2.13 case rolls it so axis-aligned doors are not screen-aligned).
+    #[serde(default)]
+    pub roll_deg: f64,
+    /// Roll of the second, tilted walkthrough that evaluations add (0: none).
+    #[serde(default)]
+    pub tilted_roll_deg: f64,
 }
 
 impl Default for WalkSettings {
@@ -69,6 +77,8 @@ impl Default for WalkSettings {
             aspect: 0.75,
             up_axis: 2,
             texture_depths: [0, 1],
+            roll_deg: 0.0,
+            tilted_roll_deg: 30.0,
         }
     }
 }
@@ -90,6 +100,10 @@ pub struct Camera {
     pub tan_y: f64,
     /// Near distance (points closer along `forward` are not drawn).
     pub near: f64,
+    /// Contact tolerance (world units, `near / 1000`): a triangle or portal that meets the
+    /// exact window only within this distance of its boundary (a wall sharing a door's
+    /// edge) is not drawn; a conservative window counts what comes within it.
+    pub tol: f64,
 }
 
 impl Camera {
@@ -113,18 +127,40 @@ impl Camera {
             tan_x,
             tan_y: tan_x * aspect,
             near,
+            tol: near * 1e-3,
         }
     }
 
+    /// The same camera rolled by `deg` degrees about its view direction.
+    pub fn rolled(mut self, deg: f64) -> Self {
+        if deg != 0.0 {
+            let (s, c) = deg.to_radians().sin_cos();
+            let (r, u) = (self.right, self.up);
+            self.right = std::array::from_fn(|i| c * r[i] + s * u[i]);
+            self.up = std::array::from_fn(|i| -s * r[i] + c * u[i]);
+        }
+        self
+    }
+
+    /// The ray direction through screen point `s` (tangent coordinates).
+    pub fn dir(&self, s: &[f64; 2]) -> P3 {
+        std::array::from_fn(|i| self.forward[i] + s[0] * self.right[i] + s[1] * self.up[i])
+    }
+
+    /// Depth of `p` along the view direction.
+    pub fn depth(&self, p: &P3) -> f64 {
+        dot(&sub(p, &self.eye), &self.forward)
+    }
+
     /// Screen coordinates (tangent space: x/z, y/z) of a point in front of the camera.
-    fn screen(&self, p: &P3) -> [f64; 2] {
+    pub fn screen(&self, p: &P3) -> [f64; 2] {
         let v = sub(p, &self.eye);
         let z = dot(&v, &self.forward);
         [dot(&v, &self.right) / z, dot(&v, &self.up) / z]
     }
 
     /// The near plane (inside: `n·x ≥ d`).
-    fn near_plane(&self) -> Plane {
+    pub fn near_plane(&self) -> Plane {
         Plane {
             n: self.forward,
             d: dot(&self.forward, &self.eye) + self.near,
@@ -166,6 +202,7 @@ pub struct Plane {
 
 /// Operation counts of the culling itself (for comparing representations).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
 pub struct Ops {
     /// Polygon–plane clips.
     pub plane_clips: u64,
@@ -173,21 +210,39 @@ pub struct Ops {
     pub narrows: u64,
     /// Triangle tests.
     pub triangle_tests: u64,
+    /// Vertices processed by the clips (3D polygon–plane and 2D screen clips).
+    pub vertices: u64,
+    /// Bounding-sphere pre-rejections (k-gon windows: portals and triangles rejected
+    /// without clipping).
+    pub sphere_rejects: u64,
+    /// 2D work of the screen-polygon windows: hull, intersection and edge-removal steps.
+    pub screen_ops: u64,
 }
 
 /// Keeps the part of `poly` inside every plane (`None` when nothing is left).
 pub fn clip(poly: &[P3], planes: &[Plane], ops: &mut Ops) -> Option<Vec<P3>> {
+    clip_tol(poly, planes, 0.0, ops)
+}
+
+/// [`clip`] with a contact tolerance: `None` as soon as no vertex lies more than `tol`
+/// inside a plane. `tol > 0` is strict (what only touches a plane within `tol` is gone);
+/// `tol < 0` is lenient (what lies within `-tol` outside a plane is kept, unclipped).
+/// Between a strict test on a window and a lenient one on a window containing it, rounding
+/// cannot make the smaller window see what the larger one does not.
+pub fn clip_tol(poly: &[P3], planes: &[Plane], tol: f64, ops: &mut Ops) -> Option<Vec<P3>> {
     let mut cur = poly.to_vec();
     let mut next = Vec::with_capacity(poly.len() + 4);
     for pl in planes {
         ops.plane_clips += 1;
+        ops.vertices += cur.len() as u64;
         let nl = norm(&pl.n).max(f64::MIN_POSITIVE);
         let dist: Vec<f64> = cur.iter().map(|p| (dot(&pl.n, p) - pl.d) / nl).collect();
-        if dist.iter().all(|&s| s >= 0.0) {
-            continue;
-        }
-        if dist.iter().all(|&s| s <= 0.0) {
+        let max = dist.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        if max <= tol {
             return None;
+        }
+        if max <= 0.0 || dist.iter().all(|&s| s >= 0.0) {
+            continue;
         }
         next.clear();
         for i in 0..cur.len() {
@@ -252,7 +307,7 @@ impl Window for ExactWindow {
 
     fn narrow(&self, cam: &Camera, portal: &[P3], ops: &mut Ops) -> Option<Self> {
         ops.narrows += 1;
-        let q = clip(portal, &self.planes, ops)?;
+        let q = clip_tol(portal, &self.planes, cam.tol, ops)?;
         let mut planes = vec![cam.near_plane()];
         // The portal is counter-clockwise around its normal and the eye is behind it, so
         // (q_i − e) × (q_{i+1} − e) points into the window for every edge (the sign of
@@ -272,9 +327,9 @@ impl Window for ExactWindow {
         Some(ExactWindow { planes })
     }
 
-    fn sees(&self, _: &Camera, tri: &[P3; 3], ops: &mut Ops) -> bool {
+    fn sees(&self, cam: &Camera, tri: &[P3; 3], ops: &mut Ops) -> bool {
         ops.triangle_tests += 1;
-        clip(tri, &self.planes, ops).is_some()
+        clip_tol(tri, &self.planes, cam.tol, ops).is_some()
     }
 }
 
@@ -310,9 +365,15 @@ impl Window for RectWindow {
 
     fn narrow(&self, cam: &Camera, portal: &[P3], ops: &mut Ops) -> Option<Self> {
         ops.narrows += 1;
-        let q = clip(portal, &self.planes(cam), ops)?;
+        let q = clip_tol(portal, &self.planes(cam), -cam.tol, ops)?;
         let mut r = [f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY];
-        for p in &q {
+        // A portal kept by the lenient clip may touch the near plane from behind: only
+        // vertices in front project; with fewer than one the window stays as it is.
+        let front: Vec<&P3> = q.iter().filter(|p| cam.depth(p) >= 0.5 * cam.near).collect();
+        if front.len() < q.len() {
+            return Some(*self);
+        }
+        for p in front {
             let s = cam.screen(p);
             r[0] = r[0].min(s[0]);
             r[1] = r[1].max(s[0]);
@@ -321,12 +382,14 @@ impl Window for RectWindow {
         }
         let [x0, x1, y0, y1] = self.rect;
         let rect = [r[0].max(x0), r[1].min(x1), r[2].max(y0), r[3].min(y1)];
-        (rect[0] <= rect[1] && rect[2] <= rect[3]).then_some(RectWindow { rect })
+        Some(RectWindow {
+            rect: [rect[0], rect[1].max(rect[0]), rect[2], rect[3].max(rect[2])],
+        })
     }
 
     fn sees(&self, cam: &Camera, tri: &[P3; 3], ops: &mut Ops) -> bool {
         ops.triangle_tests += 1;
-        clip(tri, &self.planes(cam), ops).is_some()
+        clip_tol(tri, &self.planes(cam), -cam.tol, ops).is_some()
     }
 }
 
@@ -536,6 +599,55 @@ pub struct Frame {
     pub cells_drawn: u64,
     /// Textured quads at the first texture depth.
     pub quads_a: u64,
+    /// Per window representation ([`REPS`]): triangles drawn.
+    #[serde(default)]
+    pub rep_tris: [u64; NREPS],
+    /// Portal pieces passed.
+    #[serde(default)]
+    pub rep_portals: [u64; NREPS],
+    /// Clip operations (polygon–plane clips, 3D and 2D).
+    #[serde(default)]
+    pub rep_clips: [u64; NREPS],
+    /// Vertices processed by those clips.
+    #[serde(default)]
+    pub rep_vertices: [u64; NREPS],
+}
+
+/// Number of window representations compared per frame.
+pub const NREPS: usize = 5;
+
+/// Their names, in the order of [`Frame::rep_tris`]: exact polygon, screen rectangle, and
+/// the k-gon simplifications (k = 4, 6, 8).
+pub const REPS: [&str; NREPS] = [
+    ExactWindow::NAME,
+    RectWindow::NAME,
+    KgonWindow::<4>::NAME,
+    KgonWindow::<6>::NAME,
+    KgonWindow::<8>::NAME,
+];
+
+/// One representation's summary over a walkthrough.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct RepSummary {
+    /// Name (see [`REPS`]).
+    pub name: String,
+    /// Mean triangles drawn per frame.
+    pub mean_triangles: f64,
+    /// Largest per frame.
+    pub max_triangles: u64,
+    /// Mean portal pieces passed per frame.
+    pub mean_portals: f64,
+    /// Mean triangles beyond the exact window's per frame (overdraw against it).
+    pub mean_overdraw: f64,
+    /// Largest per frame.
+    pub max_overdraw: u64,
+    /// Frames where it drew fewer triangles than the exact window (0 for a conservative
+    /// representation).
+    pub frames_below_exact: usize,
+    /// Operation counts, all frames.
+    pub ops: Ops,
+    /// Seconds of culling, all frames.
+    pub seconds: f64,
 }
 
 /// Summary of a walkthrough.
@@ -560,6 +672,9 @@ pub struct WalkReport {
     pub ops: [Ops; 2],
     /// Seconds of culling, all frames: frustum, exact, rect, textures a, textures b.
     pub seconds: [f64; 5],
+    /// Every window representation ([`REPS`]).
+    #[serde(default)]
+    pub reps: Vec<RepSummary>,
 }
 
 /// Column names of [`WalkReport::mean`] (with the texture depths).
@@ -585,7 +700,7 @@ struct Renderer<'s, 'a> {
     eps: f64,
 }
 
-#[derive(Default)]
+#[derive(Clone, Copy, Default)]
 struct Count {
     tris: u64,
     portals: u64,
@@ -641,7 +756,8 @@ impl Renderer<'_, '_> {
     }
 
     fn frustum_only(&mut self, cam: &Camera, ops: &mut Ops) -> u64 {
-        let w = ExactWindow::view(cam);
+        // Lenient, as the conservative windows (see [`clip_tol`]).
+        let w = RectWindow::view(cam);
         let mut n = 0;
         for ts in &self.tris {
             for t in ts {
@@ -720,6 +836,15 @@ impl Renderer<'_, '_> {
     }
 }
 
+fn add_ops(a: &mut Ops, b: &Ops) {
+    a.plane_clips += b.plane_clips;
+    a.narrows += b.narrows;
+    a.triangle_tests += b.triangle_tests;
+    a.vertices += b.vertices;
+    a.sphere_rejects += b.sphere_rejects;
+    a.screen_ops += b.screen_ops;
+}
+
 fn total_tris(m: &Model) -> usize {
     m.polygons.iter().map(|p| p.verts.len().saturating_sub(2)).sum()
 }
@@ -735,8 +860,8 @@ fn on_polygon(q: &[P3], p: &P3, n: &P3, eps: f64) -> bool {
     })
 }
 
-/// Runs the walkthrough: frames along [`camera_path`], each rendered five ways.
-pub fn walkthrough(scene: &Scene, settings: &WalkSettings) -> (WalkReport, Vec<Frame>) {
+/// The frames' cameras along [`camera_path`] (with the camera's cell) and the path length.
+pub fn cameras(scene: &Scene, settings: &WalkSettings) -> (Vec<(Camera, u32)>, f64) {
     let path = camera_path(scene);
     let diag = scene.graph.diagonal().max(scene.model_diagonal());
     let mut len = 0.0;
@@ -784,10 +909,27 @@ pub fn walkthrough(scene: &Scene, settings: &WalkSettings) -> (WalkReport, Vec<F
                 dir = last_dir;
             }
             last_dir = dir;
-            let cam = Camera::looking(eye, dir, settings.up_axis, settings.fov_deg, settings.aspect, near);
+            let cam = Camera::looking(eye, dir, settings.up_axis, settings.fov_deg, settings.aspect, near)
+                .rolled(settings.roll_deg);
             cams.push((cam, path[i].cell));
         }
     }
+    (cams, len)
+}
+
+/// Which triangles (numbered as the model's polygons fanned, in order) one frame draws with
+/// the window `W` from `cam` in `cell`.
+pub fn drawn<W: Window>(scene: &Scene, cam: &Camera, cell: u32) -> Vec<bool> {
+    let mut r = Renderer::new(scene);
+    let base = r.tri_base();
+    let mut ops = Ops::default();
+    r.run::<W>(&base, cam, cell, None, &mut ops);
+    r.stamp.iter().map(|&s| s == r.mark).collect()
+}
+
+/// Runs the walkthrough: frames along [`camera_path`], each rendered five ways.
+pub fn walkthrough(scene: &Scene, settings: &WalkSettings) -> (WalkReport, Vec<Frame>) {
+    let (cams, len) = cameras(scene, settings);
     let mut r = Renderer::new(scene);
     let base = r.tri_base();
     let mut frames = Vec::with_capacity(cams.len());
@@ -799,13 +941,18 @@ pub fn walkthrough(scene: &Scene, settings: &WalkSettings) -> (WalkReport, Vec<F
         ..Default::default()
     };
     let mut scratch = Ops::default();
+    let mut sums = [(Ops::default(), 0.0); NREPS];
     for (i, (cam, cell)) in cams.iter().enumerate() {
         let t0 = Instant::now();
         let frustum = r.frustum_only(cam, &mut scratch);
         let t1 = Instant::now();
-        let exact = r.run::<ExactWindow>(&base, cam, *cell, None, &mut rep.ops[0]);
+        let mut ops_exact = Ops::default();
+        let exact = r.run::<ExactWindow>(&base, cam, *cell, None, &mut ops_exact);
         let t2 = Instant::now();
-        let rect = r.run::<RectWindow>(&base, cam, *cell, None, &mut rep.ops[1]);
+        let mut ops_rect = Ops::default();
+        let rect = r.run::<RectWindow>(&base, cam, *cell, None, &mut ops_rect);
+        add_ops(&mut rep.ops[0], &ops_exact);
+        add_ops(&mut rep.ops[1], &ops_rect);
         let t3 = Instant::now();
         let ta = r.run::<ExactWindow>(&base, cam, *cell, Some(settings.texture_depths[0]), &mut scratch);
         let t4 = Instant::now();
@@ -814,6 +961,32 @@ pub fn walkthrough(scene: &Scene, settings: &WalkSettings) -> (WalkReport, Vec<F
         for (k, (a, b)) in [(t0, t1), (t1, t2), (t2, t3), (t3, t4), (t4, t5)].iter().enumerate() {
             rep.seconds[k] += (*b - *a).as_secs_f64();
         }
+        let mut rt = [0u64; NREPS];
+        let mut rp = [0u64; NREPS];
+        let mut rc = [0u64; NREPS];
+        let mut rv = [0u64; NREPS];
+        let mut one = |k: usize, c: Count, o: Ops, secs: f64, sums: &mut [(Ops, f64); NREPS]| {
+            rt[k] = c.tris;
+            rp[k] = c.portals;
+            rc[k] = o.plane_clips;
+            rv[k] = o.vertices;
+            add_ops(&mut sums[k].0, &o);
+            sums[k].1 += secs;
+        };
+        one(0, exact, ops_exact, (t2 - t1).as_secs_f64(), &mut sums);
+        one(1, rect, ops_rect, (t3 - t2).as_secs_f64(), &mut sums);
+        let t = Instant::now();
+        let mut o = Ops::default();
+        let c = r.run::<KgonWindow<4>>(&base, cam, *cell, None, &mut o);
+        one(2, c, o, t.elapsed().as_secs_f64(), &mut sums);
+        let t = Instant::now();
+        let mut o = Ops::default();
+        let c = r.run::<KgonWindow<6>>(&base, cam, *cell, None, &mut o);
+        one(3, c, o, t.elapsed().as_secs_f64(), &mut sums);
+        let t = Instant::now();
+        let mut o = Ops::default();
+        let c = r.run::<KgonWindow<8>>(&base, cam, *cell, None, &mut o);
+        one(4, c, o, t.elapsed().as_secs_f64(), &mut sums);
         frames.push(Frame {
             frame: i,
             eye: cam.eye,
@@ -826,6 +999,10 @@ pub fn walkthrough(scene: &Scene, settings: &WalkSettings) -> (WalkReport, Vec<F
             portals_traversed: exact.portals,
             cells_drawn: exact.cells,
             quads_a: ta.quads,
+            rep_tris: rt,
+            rep_portals: rp,
+            rep_clips: rc,
+            rep_vertices: rv,
         });
     }
     let nf = frames.len().max(1) as f64;
@@ -836,6 +1013,26 @@ pub fn walkthrough(scene: &Scene, settings: &WalkSettings) -> (WalkReport, Vec<F
             rep.max[k] = rep.max[k].max(v[k]);
         }
     }
+    rep.reps = (0..NREPS)
+        .map(|k| {
+            let mut s = RepSummary {
+                name: REPS[k].into(),
+                ops: sums[k].0,
+                seconds: sums[k].1,
+                ..Default::default()
+            };
+            for f in &frames {
+                let over = f.rep_tris[k].saturating_sub(f.rep_tris[0]);
+                s.mean_triangles += f.rep_tris[k] as f64 / nf;
+                s.max_triangles = s.max_triangles.max(f.rep_tris[k]);
+                s.mean_portals += f.rep_portals[k] as f64 / nf;
+                s.mean_overdraw += over as f64 / nf;
+                s.max_overdraw = s.max_overdraw.max(over);
+                s.frames_below_exact += (f.rep_tris[k] < f.rep_tris[0]) as usize;
+            }
+            s
+        })
+        .collect();
     for k in 0..5 {
         rep.speedup[k] = if rep.mean[k] > 0.0 {
             rep.mean[0] / rep.mean[k]
