@@ -35,6 +35,8 @@ pub enum Variant {
     Noise(f64),
     /// Faces shuffled and each face's first vertex rotated (seeded).
     Shuffle(u64),
+    /// Vertices renumbered by a random permutation (seeded; faces remapped).
+    RenumberVertices(u64),
     /// Every polygon split into a fan around its centroid.
     CentroidSplit,
     /// Every fifth face duplicated.
@@ -53,6 +55,7 @@ impl std::fmt::Display for Variant {
             Variant::Scale(s) => write!(f, "scale {s:.0e}"),
             Variant::Noise(e) => write!(f, "noise {e:.0e}"),
             Variant::Shuffle(s) => write!(f, "shuffle {s}"),
+            Variant::RenumberVertices(s) => write!(f, "renumber vertices {s}"),
             Variant::CentroidSplit => write!(f, "centroid split"),
             Variant::Duplicate => write!(f, "duplicate faces"),
             Variant::FlippedDuplicate => write!(f, "flipped duplicates"),
@@ -194,6 +197,23 @@ pub fn apply(v: Variant, vs: &[P3], ps: &[Vec<u32>]) -> (Vec<P3>, Vec<Vec<u32>>)
             for p in &mut ps {
                 let r = rng.below(p.len());
                 p.rotate_left(r);
+            }
+        }
+        Variant::RenumberVertices(s) => {
+            let mut rng = SplitMix64(s);
+            let mut perm: Vec<usize> = (0..vs.len()).collect();
+            for i in (1..perm.len()).rev() {
+                perm.swap(i, rng.below(i + 1));
+            }
+            // Old vertex i becomes new vertex perm[i].
+            let old = vs.clone();
+            for (i, &j) in perm.iter().enumerate() {
+                vs[j] = old[i];
+            }
+            for p in &mut ps {
+                for x in p.iter_mut() {
+                    *x = perm[*x as usize] as u32;
+                }
             }
         }
         Variant::CentroidSplit => {
@@ -422,5 +442,8 @@ mod tests {
         assert_eq!(v3[1], [1001.0, 700.0, -400.0]);
         let (_, p4) = apply(Variant::FlippedDuplicate, &vs, &ps);
         assert_eq!(p4, vec![vec![0, 1, 2], vec![2, 1, 0]]);
+        let (v5, p5) = apply(Variant::RenumberVertices(3), &vs, &ps);
+        let p5: Vec<P3> = p5[0].iter().map(|&i| v5[i as usize]).collect();
+        assert_eq!(p5, vs);
     }
 }
