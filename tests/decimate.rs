@@ -446,3 +446,19 @@ fn e1m1_decimates_end_to_end() {
         }
     }
 }
+
+#[test]
+fn threshold_runs_are_prefixes_of_the_run_to_the_end() {
+    // The weight curve `run` draws past the stop is the no-stop run; it shows the stopped
+    // run only if that run is its prefix (for aperture: with the gate on in both).
+    for soup in [four_rooms(), four_rooms().map(rotate)] {
+        let cx = build(&soup);
+        for (h, e) in all_combinations() {
+            let full = Decimation::run(&cx, &settings(h, e, StopRule::None));
+            for t in [1.2, 1.8, 3.0] {
+                let part = Decimation::run(&cx, &settings(h, e, StopRule::Threshold(t)));
+                assert_eq!(part.steps[..], full.steps[..part.steps.len()], "{h}/{e} threshold {t}");
+            }
+        }
+    }
+}
