@@ -133,24 +133,7 @@ fn random_rotation(seed: u64) -> [[f64; 3]; 3] {
         n = q.iter().map(|x| x * x).sum::<f64>();
     }
     let n = n.sqrt();
-    let [w, x, y, z] = q.map(|c| c / n);
-    [
-        [
-            1.0 - 2.0 * (y * y + z * z),
-            2.0 * (x * y - w * z),
-            2.0 * (x * z + w * y),
-        ],
-        [
-            2.0 * (x * y + w * z),
-            1.0 - 2.0 * (x * x + z * z),
-            2.0 * (y * z - w * x),
-        ],
-        [
-            2.0 * (x * z - w * y),
-            2.0 * (y * z + w * x),
-            1.0 - 2.0 * (x * x + y * y),
-        ],
-    ]
+    crate::base::rigid::quaternion_matrix(q.map(|c| c / n))
 }
 
 /// The point map of a rigid motion or scaling (`None` for the other variants).

@@ -139,23 +139,7 @@ impl Similarity {
             b * (tau * u3).sin(),
             b * (tau * u3).cos(),
         );
-        let rot = [
-            [
-                1.0 - 2.0 * (y * y + z * z),
-                2.0 * (x * y - z * w),
-                2.0 * (x * z + y * w),
-            ],
-            [
-                2.0 * (x * y + z * w),
-                1.0 - 2.0 * (x * x + z * z),
-                2.0 * (y * z - x * w),
-            ],
-            [
-                2.0 * (x * z - y * w),
-                2.0 * (y * z + x * w),
-                1.0 - 2.0 * (x * x + y * y),
-            ],
-        ];
+        let rot = crate::base::rigid::quaternion_matrix([w, x, y, z]);
         Similarity { rot, scale, offset }
     }
 
