@@ -212,8 +212,24 @@ enum Cmd {
         out: Option<PathBuf>,
         /// Run only these experiments (comma-separated names); summary.csv and README.md
         /// are then left alone.
-        #[arg(long, value_delimiter = ',')]
+        #[arg(long, value_delimiter = ',', conflicts_with_all = ["shard", "merge"])]
         only: Vec<String>,
+        /// Run shard I of N (e.g. 2/4): a deterministic subset of the directory's
+        /// definitions (experiments joined by compare_to stay together; groups balanced by
+        /// model polygon count). Writes the experiments' directories, OUT/shard-I-of-N.json
+        /// and OUT/timings.shard-I-of-N.json, never summary.csv or README.md; shards may
+        /// run at the same time (GNU parallel, a Slurm array). Then run --merge.
+        #[arg(long, conflicts_with = "merge")]
+        shard: Option<portalfind::experiment::Shard>,
+        /// Write OUT/summary.csv and OUT/README.md from the shards' outputs (all N
+        /// shard-I-of-N.json records, for the same definitions); runs no experiment.
+        #[arg(long)]
+        merge: bool,
+        /// Evaluate every experiment's visibility (PVS, E_T, culling ratio, sampling check;
+        /// as `run --evaluate` without the walkthrough): visibility.json per experiment and
+        /// OUT/summary_visibility.csv. Without it, only definitions with "evaluate": true.
+        #[arg(long)]
+        evaluate: bool,
     },
     /// For each x,y,z row of POINTS (CSV), print the id of the final cell of a run (read
     /// from DIR/result.json) that contains the point, or -1.
@@ -322,6 +338,23 @@ enum GenCmd {
 
 #[derive(Subcommand)]
 enum BenchCmd {
+    /// Issue 12's run-time-versus-error table: on the thesis models, three generated suite
+    /// models and e1m1, for each subdivision (Delaunay at the default stop and at cells:N,
+    /// BSP, qbsp's leaves from e1m1.prt) and heuristic/estimator, the cells, portals, PVS,
+    /// E_T, area fraction, culling ratio, PVS time, false invisibles and run time. Writes
+    /// OUT/comparison.csv, comparison.md and comparison.png (time against E_T).
+    Visibility {
+        /// Only the models whose name contains one of these (comma-separated), e.g.
+        /// four_room,e1m1.
+        #[arg(long, value_delimiter = ',')]
+        models: Vec<String>,
+        /// Skip the sampling check.
+        #[arg(long)]
+        no_sampling: bool,
+        /// Output directory.
+        #[arg(long, default_value = "results/visibility")]
+        out: PathBuf,
+    },
     /// 3D Delaunay on uniform, grid, boxes and rotated+offset inputs; each case runs in its
     /// own process so peak memory is per case. Prints a Markdown table.
     Delaunay {
@@ -639,6 +672,11 @@ fn run(cli: Cli) -> Result<()> {
                 out,
                 shrink_budget,
             } => bench_fuzz(target, seconds, seed, &corpus, &finds, &out, shrink_budget),
+            BenchCmd::Visibility {
+                models,
+                no_sampling,
+                out,
+            } => bench_visibility(&models, no_sampling, &out),
             BenchCmd::Scale { max_triangles, out } => {
                 let exe = std::env::current_exe()?;
                 let work = std::env::temp_dir().join(format!("portalfind-scale-{}", std::process::id()));
@@ -701,7 +739,14 @@ fn run(cli: Cli) -> Result<()> {
             }
             Ok(())
         }
-        Cmd::Experiment { path, out, only } => experiment(&path, out, &only),
+        Cmd::Experiment {
+            path,
+            out,
+            only,
+            shard,
+            merge,
+            evaluate,
+        } => experiment(&path, out, &only, shard, merge, evaluate),
     }
 }
 
@@ -1462,10 +1507,67 @@ fn locate(dir: &std::path::Path, points: &std::path::Path) -> Result<()> {
     Ok(())
 }
 
-fn experiment(path: &std::path::Path, out: Option<PathBuf>, only: &[String]) -> Result<()> {
+fn bench_visibility(only: &[String], no_sampling: bool, out: &std::path::Path) -> Result<()> {
+    use portalfind::suite::visibility as vb;
+    let t0 = Instant::now();
+    let ms = vb::models(std::path::Path::new("."), only).context("cannot load the models")?;
+    if ms.is_empty() {
+        bail!("--models: no model matches {only:?}");
+    }
+    let opts = vb::Options {
+        sampling: if no_sampling { None } else { vb::Options::default().sampling },
+        ..Default::default()
+    };
+    let mut rows = Vec::new();
+    for m in &ms {
+        eprintln!("{}: {} triangles", m.name, m.model.triangle_count());
+        rows.extend(vb::run_model(m, &opts, &mut |r| {
+            eprintln!(
+                "  {} {} {} {}: {} cells, E_T {}, PVS {:.3} s, run {} s",
+                r.subdivision,
+                r.heuristic,
+                r.estimator,
+                r.stop,
+                r.cells,
+                r.expected_triangles.map_or("-".into(), |x| format!("{x:.1}")),
+                r.pvs_seconds,
+                r.run_seconds.map_or("-".into(), |x| format!("{x:.3}"))
+            )
+        })?);
+    }
+    let command = std::iter::once("portalfind".to_string())
+        .chain(std::env::args().skip(1))
+        .collect::<Vec<_>>()
+        .join(" ");
+    let preamble = format!(
+        "Whole command: {:.1} s wall on this machine (shared, 2 cores); seconds below are wall-clock \
+         in that one process and drift with the load.\n",
+        t0.elapsed().as_secs_f64()
+    );
+    for f in vb::write(out, &rows, &command, &preamble)? {
+        println!("wrote {}", f.display());
+    }
+    print!("{}", vb::table(&rows));
+    Ok(())
+}
+
+fn experiment(
+    path: &std::path::Path,
+    out: Option<PathBuf>,
+    only: &[String],
+    shard: Option<portalfind::experiment::Shard>,
+    merge: bool,
+    evaluate: bool,
+) -> Result<()> {
     use portalfind::experiment::{self, RunOptions};
     let t0 = Instant::now();
     let is_dir = path.is_dir();
+    if (shard.is_some() || merge) && !is_dir {
+        bail!(
+            "--shard and --merge need a directory of definitions, not {}",
+            path.display()
+        );
+    }
     let files = if is_dir {
         experiment::definition_files(path)?
     } else {
@@ -1495,23 +1597,37 @@ fn experiment(path: &std::path::Path, out: Option<PathBuf>, only: &[String]) -> 
             bail!("--only: no experiment named {missing:?} in {}", path.display());
         }
     }
-    let command = std::iter::once("portalfind".to_string())
-        .chain(std::env::args().skip(1))
-        .collect::<Vec<_>>()
-        .join(" ");
+    // A shard records the equivalent unsharded command (the merged README shows it).
+    let mut args = std::env::args().skip(1);
+    let mut words = vec!["portalfind".to_string()];
+    while let Some(a) = args.next() {
+        if a == "--shard" {
+            args.next();
+        } else if !a.starts_with("--shard=") {
+            words.push(a);
+        }
+    }
+    let command = words.join(" ");
     let opts = RunOptions {
         root,
         out: out.clone(),
-        write_summary: is_dir && only.is_empty(),
+        write_summary: is_dir && only.is_empty() && shard.is_none(),
         command,
+        shard,
+        evaluate: evaluate.then(experiment::default_evaluate_settings),
     };
-    let report = experiment::run_all(defs, &opts, &mut |line| eprintln!("{line}"));
+    let report = if merge {
+        experiment::merge(defs, &opts).context("cannot merge the shards")?
+    } else {
+        experiment::run_all(defs, &opts, &mut |line| eprintln!("{line}"))
+    };
     for f in &report.files {
         println!("wrote {}", f.display());
     }
     println!(
-        "{} experiments ran, {} failed; results in {}; wall time {:.2} s",
+        "{} experiments {}, {} failed; results in {}; wall time {:.2} s",
         report.outcomes.len(),
+        if merge { "merged" } else { "ran" },
         report.failures.len(),
         out.display(),
         t0.elapsed().as_secs_f64()

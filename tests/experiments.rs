@@ -28,6 +28,8 @@ fn opts(out: &Path, write_summary: bool) -> RunOptions {
         out: out.to_path_buf(),
         write_summary,
         command: "portalfind experiment (test)".into(),
+        shard: None,
+        evaluate: None,
     }
 }
 

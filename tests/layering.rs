@@ -18,7 +18,8 @@ const LAYERS: &[&[&str]] = &[
     &["rooms", "visibility"],
     &["output"],
     &["pipeline"],
-    &["experiment", "bench", "evaluate"],
+    &["evaluate"],
+    &["experiment", "bench"],
     &["suite"],
 ];
 

@@ -16,7 +16,7 @@ use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
 /// The top-level fields of a definition.
-pub const FIELDS: [&str; 12] = [
+pub const FIELDS: [&str; 13] = [
     "name",
     "description",
     "model",
@@ -29,6 +29,7 @@ pub const FIELDS: [&str; 12] = [
     "thesis",
     "compare_to",
     "snapshots",
+    "evaluate",
 ];
 
 /// The fields of `compare_to`.
@@ -135,6 +136,11 @@ pub struct Definition {
     /// Cell counts whose intermediate states are drawn as `cells_N.svg` (rebuilt by
     /// replay) and summarised in `evaluation.json`.
     pub snapshots: Vec<usize>,
+    /// Evaluate the final partition's visibility (`evaluate: true`; as `portalfind run
+    /// --evaluate` without the walkthrough): `visibility.json` and `visibility_cells.csv` in
+    /// the experiment's directory, a summary in `evaluation.json`. `experiment --evaluate`
+    /// turns it on for every definition.
+    pub evaluate: bool,
 }
 
 /// Reads a field with serde, naming it in the error.
@@ -344,6 +350,7 @@ impl Definition {
             thesis,
             compare_to,
             snapshots: field(file, obj, "snapshots")?.unwrap_or_default(),
+            evaluate: field(file, obj, "evaluate")?.unwrap_or(false),
         })
     }
 

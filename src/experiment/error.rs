@@ -55,6 +55,15 @@ pub enum ExperimentError {
         /// The other definition with this name.
         other: PathBuf,
     },
+    /// A failure a shard reported (`experiment --shard`), as it printed it; the merge
+    /// reports it again with the same text.
+    #[error("{message}")]
+    Recorded {
+        /// The definition file.
+        file: PathBuf,
+        /// The error as the shard printed it.
+        message: String,
+    },
     /// The experiment ran and failed.
     #[error("{}: experiment {name:?} failed: {message}", file.display())]
     Failed {
@@ -76,6 +85,7 @@ impl ExperimentError {
             | ExperimentError::UnknownField { file, .. }
             | ExperimentError::Invalid { file, .. }
             | ExperimentError::DuplicateName { file, .. }
+            | ExperimentError::Recorded { file, .. }
             | ExperimentError::Failed { file, .. } => file,
         }
     }
@@ -199,6 +209,9 @@ pub enum RunError {
         #[source]
         source: std::io::Error,
     },
+    /// The visibility evaluation (`evaluate: true`) failed.
+    #[error("visibility evaluation")]
+    Evaluate(#[source] Box<crate::evaluate::EvaluateError>),
     /// `summary.csv` cannot be formatted.
     #[error("cannot write summary.csv")]
     SummaryCsv(#[source] Box<dyn std::error::Error + Send + Sync>),

@@ -15,12 +15,18 @@
 //!   `results/README.md` ([`report`]). A failing experiment is reported as an
 //!   [`ExperimentError`] naming its file; the others still run.
 //! - [`eval`]: the evaluation against the ground truth.
+//! - [`shard`]: `--shard I/N` (a deterministic subset per shard, its own record) and
+//!   `--merge` (`summary.csv` and `README.md` from the shards' outputs).
+//! - Visibility (`evaluate: true` or `--evaluate`): [`crate::evaluate`] on the final
+//!   partition, `visibility.json` per experiment, summarised in `evaluation.json`,
+//!   `summary_visibility.csv` and the README.
 
 pub mod definition;
 mod error;
 pub mod eval;
 pub mod report;
 mod runner;
+pub mod shard;
 pub mod transform;
 
 pub use crate::pipeline::Subdivision;
@@ -29,5 +35,9 @@ pub use definition::{
     PortalSet, TRANSFORM_KINDS, definition_files, read_definitions,
 };
 pub use error::{ExperimentError, RunError, chain};
-pub use runner::{EVALUATION_FILE, Outcome, Report, RunOptions, load_model, run_all, run_experiment};
+pub use runner::{
+    EVALUATION_FILE, Outcome, Report, RunOptions, TIMINGS_FILE, default_evaluate_settings, load_model, run_all,
+    run_experiment, run_experiment_with,
+};
+pub use shard::{Shard, merge};
 pub use transform::{Transform, apply_all, invert_all, length_factor};

@@ -386,6 +386,20 @@ pub fn write_summary(
         path: csv_path.clone(),
         source,
     })?;
+    // summary_visibility.csv: only when some experiment was evaluated (else an earlier one
+    // is removed: it would no longer match).
+    let vis_path = out.join(VISIBILITY_SUMMARY_FILE);
+    let mut files = vec![csv_path];
+    if report.outcomes.iter().any(|o| o.eval.visibility.is_some()) {
+        let bytes = visibility_csv(report).map_err(|e| RunError::SummaryCsv(Box::new(e)))?;
+        write_atomic(&vis_path, &bytes).map_err(|source| RunError::WriteFile {
+            path: vis_path.clone(),
+            source,
+        })?;
+        files.push(vis_path);
+    } else if vis_path.is_file() {
+        let _ = std::fs::remove_file(&vis_path);
+    }
     // README.md
     let readme = readme_text(report, opts);
     let md_path = out.join("README.md");
@@ -393,7 +407,92 @@ pub fn write_summary(
         path: md_path.clone(),
         source,
     })?;
-    Ok(vec![csv_path, md_path])
+    files.push(md_path);
+    Ok(files)
+}
+
+/// The visibility summary's file name in the results directory.
+pub const VISIBILITY_SUMMARY_FILE: &str = "summary_visibility.csv";
+
+/// `summary_visibility.csv`: one row per evaluated experiment (no timings: the PVS seconds
+/// are in `timings.json`; `pvs_chains` counts the PVS's work).
+fn visibility_csv(report: &Report) -> Result<Vec<u8>, csv::Error> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    w.write_record([
+        "experiment",
+        "cells",
+        "portals",
+        "pvs_mean_cells",
+        "pvs_max_cells",
+        "total_triangles",
+        "expected_triangles",
+        "area_fraction",
+        "culling_ratio",
+        "pvs_chains",
+        "rays",
+        "false_invisible",
+        "overestimation_median",
+    ])?;
+    for o in &report.outcomes {
+        let Some(v) = &o.eval.visibility else { continue };
+        w.write_record([
+            o.eval.experiment.clone(),
+            v.cells.to_string(),
+            v.portals.to_string(),
+            sig(v.pvs_mean_cells),
+            v.pvs_max_cells.to_string(),
+            v.total_triangles.to_string(),
+            sig(v.expected_triangles),
+            sig(v.area_fraction),
+            sig(v.culling_ratio),
+            v.pvs_chains.to_string(),
+            v.rays.to_string(),
+            v.false_invisible.to_string(),
+            v.overestimation_median.map_or(String::new(), sig),
+        ])?;
+    }
+    w.into_inner().map_err(|e| e.into_error().into())
+}
+
+/// The README's visibility table (empty when no experiment was evaluated).
+fn visibility_section(report: &Report) -> String {
+    let rows: Vec<_> = report
+        .outcomes
+        .iter()
+        .filter_map(|o| o.eval.visibility.as_ref().map(|v| (&o.eval, v)))
+        .collect();
+    if rows.is_empty() {
+        return String::new();
+    }
+    let mut s = String::from(
+        "## Visibility of the final partitions\n\n\
+         Evaluated experiments (definition field `evaluate`, or `experiment --evaluate`): the \
+         PVS, E_T and the sampling check of `portalfind evaluate` on the final cells; each \
+         directory holds `visibility.json` and `visibility_cells.csv`, and \
+         `summary_visibility.csv` has these rows (PVS seconds: `timings.json`).\n\n\
+         | experiment | cells | portals | PVS cells mean / max | E_T | triangles | area fraction | culling ratio | rays | false invisibles | overestimation (median) |\n\
+         |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+    );
+    for (e, v) in rows {
+        let _ = writeln!(
+            s,
+            "| [{n}]({n}/) | {} | {} | {} / {} | {} | {} | {} | {} | {} | {} | {} |",
+            v.cells,
+            v.portals,
+            sig(v.pvs_mean_cells),
+            v.pvs_max_cells,
+            sig(v.expected_triangles),
+            v.total_triangles,
+            sig(v.area_fraction),
+            sig(v.culling_ratio),
+            v.rays,
+            v.false_invisible,
+            v.overestimation_median.map_or("—".into(), sig),
+            n = e.experiment
+        );
+    }
+    s.push('\n');
+    s
 }
 
 fn rel_link(out: &Path, file: &str) -> String {
@@ -491,6 +590,7 @@ fn readme_text(report: &Report, opts: &RunOptions) -> String {
         );
     }
     s.push('\n');
+    s.push_str(&visibility_section(report));
     for o in &report.outcomes {
         let e = &o.eval;
         let _ = writeln!(s, "## [{n}]({n}/)\n", n = e.experiment);

@@ -6,7 +6,7 @@
 use super::definition::{CompareTo, Definition, ModelSource, PortalSet};
 use super::error::{ExperimentError, RunError, chain};
 use super::transform::apply_all;
-use super::{eval, report};
+use super::{eval, report, shard};
 use crate::decimate::{Decimation, StopRule};
 use crate::generate::thesis::{self as thesis_models, GroundTruth};
 use crate::model::Model;
@@ -105,13 +105,36 @@ pub struct Outcome {
     pub dir: PathBuf,
 }
 
+/// The visibility settings of an evaluated experiment (definition field `evaluate`): the
+/// PVS and the sampling check at their defaults, no walkthrough.
+pub fn default_evaluate_settings() -> crate::evaluate::Settings {
+    crate::evaluate::Settings {
+        pvs: Default::default(),
+        sampling: Some(Default::default()),
+        walkthrough: None,
+    }
+}
+
 /// Runs one experiment: writes `out/<name>/` (result.json, weight curve CSV/PNG,
-/// cells.svg) and returns the evaluation, not yet written (see [`run_all`]).
+/// cells.svg; with the definition's `evaluate`, the visibility files) and returns the
+/// evaluation, not yet written (see [`run_all`]).
 pub fn run_experiment(def: &Definition, root: &Path, out: &Path) -> Result<Outcome, RunError> {
+    let es = def.evaluate.then(default_evaluate_settings);
+    run_experiment_with(def, root, out, es.as_ref())
+}
+
+/// [`run_experiment`] with the visibility evaluation given (`None`: not evaluated, whatever
+/// the definition says).
+pub fn run_experiment_with(
+    def: &Definition,
+    root: &Path,
+    out: &Path,
+    evaluate: Option<&crate::evaluate::Settings>,
+) -> Result<Outcome, RunError> {
     let t0 = Instant::now();
     let dir = out.join(&def.name);
     // Refuse a directory holding foreign files with output names before the work.
-    output::check_output_dir(&dir, &set_options())?;
+    output::check_output_dir(&dir, &set_options(evaluate.is_some()))?;
     output::check_snapshot_counts(&def.snapshots, &def.settings.stop).map_err(|source| RunError::Snapshots {
         file: def.file.clone(),
         source,
@@ -160,12 +183,15 @@ pub fn run_experiment(def: &Definition, root: &Path, out: &Path) -> Result<Outco
     let opts = output::SetOptions {
         notes,
         strip_timings: true,
-        ..set_options()
+        ..set_options(evaluate.is_some())
     };
     output::write_run(&dir, &model, &p.doc, &p.dec, &snapshots, &opts)?;
     ev.timings
         .stages
         .push(("write outputs".into(), t1.elapsed().as_secs_f64()));
+    if let Some(es) = evaluate {
+        ev.visibility = Some(evaluate_visibility(def, &model, &p, es, &dir, &mut ev.timings.stages)?);
+    }
     ev.timings.total_seconds = t0.elapsed().as_secs_f64();
     ev.snapshots = snapshots.into_iter().map(|(s, _)| s).collect();
     let portals = eval::portal_summaries(&p.doc);
@@ -179,6 +205,50 @@ pub fn run_experiment(def: &Definition, root: &Path, out: &Path) -> Result<Outco
     })
 }
 
+/// The visibility of the final partition, as `portalfind run --evaluate` computes it
+/// ([`crate::evaluate::evaluate_partition`]): writes `visibility.json` and
+/// `visibility_cells.csv` into `dir` with their timings zeroed (the timings go to `stages`,
+/// hence to `timings.json`, so the files are the same on every machine) and returns the
+/// summary for `evaluation.json`.
+fn evaluate_visibility(
+    def: &Definition,
+    model: &Model,
+    p: &pipeline::Run,
+    es: &crate::evaluate::Settings,
+    dir: &Path,
+    stages: &mut Vec<(String, f64)>,
+) -> Result<eval::VisibilitySummary, RunError> {
+    let rs = serde_json::to_value(&p.doc.settings).unwrap_or_default();
+    let mut o = crate::evaluate::evaluate_partition(model, &p.doc.model.path, rs, &p.cx, &p.dec.partition, es, Vec::new());
+    let e = &mut o.evaluation;
+    stages.push((eval::VISIBILITY_PVS_STAGE.into(), e.report.pvs_seconds));
+    stages.extend(e.stages.drain(..).map(|s| (format!("visibility: {}", s.stage), s.seconds)));
+    let r = &mut e.report;
+    r.pvs_seconds = 0.0;
+    r.cost_seconds = 0.0;
+    r.pvs.base_seconds = 0.0;
+    r.pvs.flow_seconds = 0.0;
+    if let Some(s) = &mut r.sampling {
+        s.seconds = 0.0;
+    }
+    crate::evaluate::write(dir, &o, &def.name).map_err(|e| RunError::Evaluate(Box::new(e)))?;
+    let r = &o.evaluation.report;
+    Ok(eval::VisibilitySummary {
+        cells: r.cells,
+        portals: r.portals,
+        pvs_mean_cells: r.pvs_mean_cells,
+        pvs_max_cells: r.pvs_max_cells,
+        total_triangles: r.total_triangles,
+        expected_triangles: r.expected_triangles,
+        area_fraction: r.area_fraction,
+        culling_ratio: r.culling_ratio,
+        pvs_chains: r.pvs.chains,
+        rays: r.sampling.as_ref().map_or(0, |s| s.rays),
+        false_invisible: r.sampling.as_ref().map_or(0, |s| s.false_invisible),
+        overestimation_median: r.sampling.as_ref().map(|s| s.overestimation_median),
+    })
+}
+
 /// Options of [`run_all`].
 pub struct RunOptions {
     /// Where relative model and truth paths are resolved (the repository).
@@ -187,8 +257,16 @@ pub struct RunOptions {
     pub out: PathBuf,
     /// Write `summary.csv` and `README.md` (for a whole directory of definitions).
     pub write_summary: bool,
-    /// The command line, for the README.
+    /// The command line, for the README (for a shard: the equivalent unsharded command,
+    /// which the merged README shows).
     pub command: String,
+    /// Run only this shard's definitions ([`super::shard`]): no `summary.csv` or
+    /// `README.md`, but `shard-I-of-N.json` and `timings.shard-I-of-N.json`.
+    pub shard: Option<super::shard::Shard>,
+    /// Evaluate every experiment's visibility with these settings (`experiment
+    /// --evaluate`); `None`: only the definitions with `evaluate: true`, at
+    /// [`default_evaluate_settings`].
+    pub evaluate: Option<crate::evaluate::Settings>,
 }
 
 /// What [`run_all`] did.
@@ -240,10 +318,17 @@ fn earlier_portals(out: &Path, c: &CompareTo) -> Result<(Vec<eval::PortalSummary
     }
 }
 
-/// The experiment's output set: the run's files plus `evaluation.json`, written later.
-fn set_options() -> output::SetOptions<'static> {
+/// The experiment's output set: the run's files plus `evaluation.json` (and, when evaluated,
+/// the visibility files), written later.
+fn set_options(evaluated: bool) -> output::SetOptions<'static> {
+    const PLAIN: &[&str] = &[EVALUATION_FILE];
+    const EVALUATED: &[&str] = &[
+        EVALUATION_FILE,
+        crate::evaluate::VISIBILITY_FILE,
+        crate::evaluate::CELLS_FILE,
+    ];
     output::SetOptions {
-        later: &[EVALUATION_FILE],
+        later: if evaluated { EVALUATED } else { PLAIN },
         ..Default::default()
     }
 }
@@ -253,7 +338,7 @@ fn set_options() -> output::SetOptions<'static> {
 /// neither a partial set nor an earlier run's files that look current; other files stay.
 /// Returns how many files were removed.
 fn clear_results(dir: &Path) -> usize {
-    output::remove_run(dir, &set_options()).map_or(0, |v| v.len())
+    output::remove_run(dir, &set_options(true)).map_or(0, |v| v.len())
 }
 
 /// Runs the definitions in order, then the rotation checks, then writes every
@@ -261,6 +346,31 @@ fn clear_results(dir: &Path) -> usize {
 /// `log` with a line per finished or failed experiment.
 pub fn run_all(defs: Vec<Result<Definition, ExperimentError>>, opts: &RunOptions, log: &mut dyn FnMut(&str)) -> Report {
     let t0 = Instant::now();
+    // A shard keeps its own definitions (the same rule in every shard) and forgets its
+    // earlier record first, so a shard killed on the way leaves none.
+    let (defs, sharded) = match opts.shard {
+        None => (defs, None),
+        Some(sh) => {
+            let costs = shard::costs(&defs, &opts.root);
+            let which = shard::assign(&defs, &costs, sh.count);
+            let recorded = shard::record_definitions(&defs, &costs, &which);
+            let _ = std::fs::remove_file(opts.out.join(sh.record_file()));
+            let total: u64 = costs.iter().sum();
+            let mine: u64 = costs.iter().zip(&which).filter(|(_, k)| **k == sh.index).map(|(c, _)| c).sum();
+            let n = defs.len();
+            let defs: Vec<_> = defs
+                .into_iter()
+                .zip(&which)
+                .filter(|(_, k)| **k == sh.index)
+                .map(|(d, _)| d)
+                .collect();
+            log(&format!(
+                "shard {sh}: {} of {n} definitions (expected cost {mine} of {total} polygons)",
+                defs.len()
+            ));
+            (defs, Some((sh, recorded)))
+        }
+    };
     let mut outcomes = Vec::new();
     let mut failures = Vec::new();
     let mut order: Vec<(String, PathBuf)> = Vec::new();
@@ -277,7 +387,8 @@ pub fn run_all(defs: Vec<Result<Definition, ExperimentError>>, opts: &RunOptions
         };
         order.push((def.name.clone(), def.file.clone()));
         log(&format!("[{}/{total}] {}: running ({})", k + 1, def.name, def.model));
-        match run_experiment(&def, &opts.root, &opts.out) {
+        let es = opts.evaluate.or_else(|| def.evaluate.then(default_evaluate_settings));
+        match run_experiment_with(&def, &opts.root, &opts.out, es.as_ref()) {
             Ok(o) => {
                 log(&eval::one_line(&o.eval));
                 outcomes.push(o);
@@ -367,15 +478,53 @@ pub fn run_all(defs: Vec<Result<Definition, ExperimentError>>, opts: &RunOptions
         .filter(|(i, _)| !failed_idx.contains(i))
         .map(|(_, o)| o)
         .collect();
+    // Failures in definition order (a merge of shards reports them in that order too).
+    let rank = |f: &ExperimentError| order.iter().position(|(_, file)| file.as_path() == f.file());
+    failures.sort_by_key(|f| rank(f));
     let mut report = Report {
         outcomes,
         failures,
         seconds: 0.0,
         files: Vec::new(),
     };
-    match write_timings(&report, &opts.out, t0) {
+    let timings = opts.shard.map_or_else(|| TIMINGS_FILE.to_string(), |s| s.timings_file());
+    match write_timings(&report, &opts.out, &timings, t0) {
         Ok(p) => report.files.push(p),
         Err(e) => log(&format!("warning: {}", chain(&e))),
+    }
+    if let Some((sh, definitions)) = sharded {
+        let record = shard::ShardRecord {
+            schema: "portalfind-experiment-shard".into(),
+            schema_version: 1,
+            generator: format!("portalfind {}", env!("CARGO_PKG_VERSION")),
+            index: sh.index,
+            count: sh.count,
+            command: opts.command.clone(),
+            definitions,
+            finished: report.outcomes.iter().map(|o| o.def.name.clone()).collect(),
+            failures: report
+                .failures
+                .iter()
+                .map(|f| shard::RecordedFailure {
+                    file: f.file().display().to_string(),
+                    message: f.to_string(),
+                })
+                .collect(),
+        };
+        match shard::write_record(&opts.out, sh, &record) {
+            Ok(p) => report.files.push(p),
+            Err(e) => {
+                let e = ExperimentError::Failed {
+                    file: opts.out.clone(),
+                    name: format!("shard {sh}"),
+                    message: chain(&e),
+                };
+                log(&format!("error: {e}"));
+                report.failures.push(e);
+            }
+        }
+        report.seconds = t0.elapsed().as_secs_f64();
+        return report;
     }
     if opts.write_summary {
         match report::write_summary(&report, &order, opts) {
@@ -397,7 +546,7 @@ pub fn run_all(defs: Vec<Result<Definition, ExperimentError>>, opts: &RunOptions
 
 /// Writes `out/timings.json`: each finished experiment's stage timings and total, and the
 /// run's wall time so far.
-fn write_timings(report: &Report, out: &Path, t0: Instant) -> Result<PathBuf, RunError> {
+fn write_timings(report: &Report, out: &Path, file: &str, t0: Instant) -> Result<PathBuf, RunError> {
     let experiments: Vec<serde_json::Value> = report
         .outcomes
         .iter()
@@ -418,7 +567,7 @@ fn write_timings(report: &Report, out: &Path, t0: Instant) -> Result<PathBuf, Ru
         dir: out.to_path_buf(),
         source,
     })?;
-    let path = out.join(TIMINGS_FILE);
+    let path = out.join(file);
     let text = serde_json::to_string_pretty(&doc).map_err(RunError::SerializeEvaluation)?;
     crate::model::write::write_atomic(&path, text.as_bytes()).map_err(|source| RunError::WriteFile {
         path: path.clone(),

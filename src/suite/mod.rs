@@ -60,6 +60,7 @@ pub mod scale;
 pub mod stress;
 pub mod thesis;
 mod util;
+pub mod visibility;
 
 pub use util::{Aabb, Similarity};
 

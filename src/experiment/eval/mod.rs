@@ -275,8 +275,13 @@ pub fn evaluate(
         rotation_checks: Vec::new(),
         thesis: def.thesis.clone(),
         snapshots: Vec::new(),
+        visibility: None,
     }
 }
+
+/// The timing stage of an evaluated experiment's PVS (in `timings.json`, not in
+/// `evaluation.json`).
+pub const VISIBILITY_PVS_STAGE: &str = "visibility: PVS (base + flow)";
 
 /// A one-line summary for the log.
 pub fn one_line(e: &Evaluation) -> String {
@@ -299,6 +304,15 @@ pub fn one_line(e: &Evaluation) -> String {
         );
         if let Some(j) = &t.weight_jump {
             s += &format!("; jump {:.3} -> {:.3} at step {}", j.max_before, j.weight, j.step);
+        }
+    }
+    if let Some(v) = &e.visibility {
+        s += &format!(
+            "; E_T {:.1} of {} triangles (culling {:.3}), false invisibles {}",
+            v.expected_triangles, v.total_triangles, v.culling_ratio, v.false_invisible
+        );
+        if let Some((_, secs)) = e.timings.stages.iter().find(|(n, _)| n == VISIBILITY_PVS_STAGE) {
+            s += &format!(", PVS {secs:.2} s");
         }
     }
     s + &format!(" ({:.2} s)", e.timings.total_seconds)

@@ -44,6 +44,41 @@ pub struct Evaluation {
     /// Intermediate states drawn as `cells_N.svg` (the definition's `snapshots`).
     #[serde(default)]
     pub snapshots: Vec<crate::output::Snapshot>,
+    /// The visibility of the final partition (only when the experiment was evaluated:
+    /// definition field `evaluate`, or `experiment --evaluate`; absent otherwise).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub visibility: Option<VisibilitySummary>,
+}
+
+/// The visibility figures of an evaluated experiment (the full figures are in its
+/// `visibility.json`, written by [`crate::evaluate`]); no timings (those go to
+/// `timings.json`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct VisibilitySummary {
+    /// Cells of the portal graph (the final partition).
+    pub cells: usize,
+    /// Portals (cell pairs).
+    pub portals: usize,
+    /// Mean PVS size in cells.
+    pub pvs_mean_cells: f64,
+    /// Largest PVS size in cells.
+    pub pvs_max_cells: usize,
+    /// Model triangles.
+    pub total_triangles: u64,
+    /// Expected triangles drawn, `E_T`.
+    pub expected_triangles: f64,
+    /// PVS area fraction.
+    pub area_fraction: f64,
+    /// `1 − E_T / total_triangles`.
+    pub culling_ratio: f64,
+    /// Flow steps of the PVS (a machine-independent measure of its work).
+    pub pvs_chains: u64,
+    /// Sampling check: rays cast (0 when skipped).
+    pub rays: u64,
+    /// Sampling check: false invisibles (must be 0).
+    pub false_invisible: u64,
+    /// Sampling check: median overestimation (PVS triangles / sampled).
+    pub overestimation_median: Option<f64>,
 }
 
 /// Model counts.
