@@ -1515,7 +1515,11 @@ fn bench_visibility(only: &[String], no_sampling: bool, out: &std::path::Path) -
         bail!("--models: no model matches {only:?}");
     }
     let opts = vb::Options {
-        sampling: if no_sampling { None } else { vb::Options::default().sampling },
+        sampling: if no_sampling {
+            None
+        } else {
+            vb::Options::default().sampling
+        },
         ..Default::default()
     };
     let mut rows = Vec::new();

@@ -105,7 +105,12 @@ fn merged_shards_equal_an_unsharded_run() {
         &opts(&root, &whole, None),
         &mut |_| {},
     );
-    assert_eq!(r.outcomes.len(), 5, "{:?}", r.failures.iter().map(|f| f.to_string()).collect::<Vec<_>>());
+    assert_eq!(
+        r.outcomes.len(),
+        5,
+        "{:?}",
+        r.failures.iter().map(|f| f.to_string()).collect::<Vec<_>>()
+    );
     assert_eq!(r.failures.len(), 2);
     // The evaluated experiment has its visibility; the rotation check ran.
     let b = r.outcomes.iter().find(|o| o.def.name == "b_opt_aspect").unwrap();
@@ -115,7 +120,12 @@ fn merged_shards_equal_an_unsharded_run() {
     assert!(v.rays > 0);
     let c = r.outcomes.iter().find(|o| o.def.name == "c_rot").unwrap();
     assert_eq!(c.eval.rotation_checks.len(), 1);
-    assert!(r.outcomes.iter().filter(|o| o.def.name != "b_opt_aspect").all(|o| o.eval.visibility.is_none()));
+    assert!(
+        r.outcomes
+            .iter()
+            .filter(|o| o.def.name != "b_opt_aspect")
+            .all(|o| o.eval.visibility.is_none())
+    );
 
     // Three shards, in a shuffled order, into one directory.
     let mut finished: Vec<(usize, String)> = Vec::new();
@@ -185,7 +195,11 @@ fn merge_refuses_missing_shards_and_changed_definitions() {
         .collect();
     for index in 1..=2 {
         let sh = Shard { index, count: 2 };
-        experiment::run_all(experiment::read_definitions(&keep), &opts(&root, &out, Some(sh)), &mut |_| {});
+        experiment::run_all(
+            experiment::read_definitions(&keep),
+            &opts(&root, &out, Some(sh)),
+            &mut |_| {},
+        );
     }
     experiment::merge(experiment::read_definitions(&keep), &opts(&root, &out, None)).unwrap();
     // A changed definition.

@@ -219,10 +219,15 @@ fn evaluate_visibility(
     stages: &mut Vec<(String, f64)>,
 ) -> Result<eval::VisibilitySummary, RunError> {
     let rs = serde_json::to_value(&p.doc.settings).unwrap_or_default();
-    let mut o = crate::evaluate::evaluate_partition(model, &p.doc.model.path, rs, &p.cx, &p.dec.partition, es, Vec::new());
+    let mut o =
+        crate::evaluate::evaluate_partition(model, &p.doc.model.path, rs, &p.cx, &p.dec.partition, es, Vec::new());
     let e = &mut o.evaluation;
     stages.push((eval::VISIBILITY_PVS_STAGE.into(), e.report.pvs_seconds));
-    stages.extend(e.stages.drain(..).map(|s| (format!("visibility: {}", s.stage), s.seconds)));
+    stages.extend(
+        e.stages
+            .drain(..)
+            .map(|s| (format!("visibility: {}", s.stage), s.seconds)),
+    );
     let r = &mut e.report;
     r.pvs_seconds = 0.0;
     r.cost_seconds = 0.0;
@@ -356,7 +361,12 @@ pub fn run_all(defs: Vec<Result<Definition, ExperimentError>>, opts: &RunOptions
             let recorded = shard::record_definitions(&defs, &costs, &which);
             let _ = std::fs::remove_file(opts.out.join(sh.record_file()));
             let total: u64 = costs.iter().sum();
-            let mine: u64 = costs.iter().zip(&which).filter(|(_, k)| **k == sh.index).map(|(c, _)| c).sum();
+            let mine: u64 = costs
+                .iter()
+                .zip(&which)
+                .filter(|(_, k)| **k == sh.index)
+                .map(|(c, _)| c)
+                .sum();
             let n = defs.len();
             let defs: Vec<_> = defs
                 .into_iter()
@@ -487,7 +497,9 @@ pub fn run_all(defs: Vec<Result<Definition, ExperimentError>>, opts: &RunOptions
         seconds: 0.0,
         files: Vec::new(),
     };
-    let timings = opts.shard.map_or_else(|| TIMINGS_FILE.to_string(), |s| s.timings_file());
+    let timings = opts
+        .shard
+        .map_or_else(|| TIMINGS_FILE.to_string(), |s| s.timings_file());
     match write_timings(&report, &opts.out, &timings, t0) {
         Ok(p) => report.files.push(p),
         Err(e) => log(&format!("warning: {}", chain(&e))),

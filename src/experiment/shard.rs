@@ -219,7 +219,9 @@ fn fnv1a(bytes: &[u8]) -> String {
 /// cannot be loaded.
 pub fn expected_cost(def: &Definition, root: &Path) -> u64 {
     match &def.model {
-        super::ModelSource::Thesis(n) => crate::generate::thesis::by_name(n).map_or(0, |m| m.soup.polygons.len() as u64),
+        super::ModelSource::Thesis(n) => {
+            crate::generate::thesis::by_name(n).map_or(0, |m| m.soup.polygons.len() as u64)
+        }
         super::ModelSource::File(p) => crate::model::load_model(&root.join(p)).map_or(0, |m| m.polygons.len() as u64),
     }
 }
@@ -356,7 +358,9 @@ pub fn read_records(out: &Path) -> Result<Vec<(PathBuf, ShardRecord)>, ShardErro
         let Some(rest) = name.strip_prefix("shard-").and_then(|r| r.strip_suffix(".json")) else {
             continue;
         };
-        let Some((i, n)) = rest.split_once("-of-") else { continue };
+        let Some((i, n)) = rest.split_once("-of-") else {
+            continue;
+        };
         if let (Ok(_), Ok(n)) = (i.parse::<usize>(), n.parse::<usize>())
             && !counts.contains(&n)
         {
@@ -418,11 +422,17 @@ pub fn merge(defs: Vec<Result<Definition, ExperimentError>>, opts: &RunOptions) 
         }
         for (a, b) in r.definitions.iter().zip(&now) {
             if (&a.file, &a.name, &a.hash) != (&b.file, &b.name, &b.hash) {
-                return Err(changed(format!("{} ({:?}) then, {} ({:?}) now", a.file, a.name, b.file, b.name)));
+                return Err(changed(format!(
+                    "{} ({:?}) then, {} ({:?}) now",
+                    a.file, a.name, b.file, b.name
+                )));
             }
         }
         if r.definitions != records[0].1.definitions {
-            return Err(changed(format!("its assignment differs from {}", records[0].0.display())));
+            return Err(changed(format!(
+                "its assignment differs from {}",
+                records[0].0.display()
+            )));
         }
     }
     let mut outcomes = Vec::new();
@@ -489,7 +499,9 @@ pub fn merge(defs: Vec<Result<Definition, ExperimentError>>, opts: &RunOptions) 
             count: r.count,
         };
         let p = opts.out.join(s.timings_file());
-        let Ok(text) = std::fs::read_to_string(&p) else { continue };
+        let Ok(text) = std::fs::read_to_string(&p) else {
+            continue;
+        };
         let Ok(v) = serde_json::from_str::<serde_json::Value>(&text) else {
             continue;
         };

@@ -93,7 +93,10 @@ pub fn models(root: &Path, only: &[String]) -> Result<Vec<BenchModel>, Visibilit
     use super::Family;
     let keep = |n: &str| only.is_empty() || only.iter().any(|o| n.contains(o.as_str()));
     let mut out = Vec::new();
-    let mut cases: Vec<super::SuiteCase> = Family::Thesis.seeds().filter_map(|s| super::case(Family::Thesis, s)).collect();
+    let mut cases: Vec<super::SuiteCase> = Family::Thesis
+        .seeds()
+        .filter_map(|s| super::case(Family::Thesis, s))
+        .collect();
     for f in [Family::Tessellated, Family::MultiStorey, Family::Caverns] {
         cases.extend(super::case(f, 1));
     }
@@ -260,13 +263,14 @@ pub fn run_model(m: &BenchModel, opts: &Options, log: &mut dyn FnMut(&Row)) -> R
             continue;
         }
         let t0 = Instant::now();
-        let cells = crate::pipeline::build_cells(&m.model, &path, &CellSettings::of(sub), &mut |_| {}).map_err(
-            |source| VisibilityBenchError::Cells {
-                name: m.name.clone(),
-                subdivision: sub.to_string(),
-                source,
-            },
-        )?;
+        let cells =
+            crate::pipeline::build_cells(&m.model, &path, &CellSettings::of(sub), &mut |_| {}).map_err(|source| {
+                VisibilityBenchError::Cells {
+                    name: m.name.clone(),
+                    subdivision: sub.to_string(),
+                    source,
+                }
+            })?;
         let cells_seconds = t0.elapsed().as_secs_f64();
         let union_ok = cells.cx.stats.active_cells <= UNION_MAX_CELLS;
         for c in list {
@@ -494,7 +498,10 @@ mod tests {
             }
         }
         // The 16-cell partitions see less than everything; 4 room cells see all 4.
-        let at16 = rows.iter().find(|r| r.stop == "cells:16" && r.subdivision == "delaunay").unwrap();
+        let at16 = rows
+            .iter()
+            .find(|r| r.stop == "cells:16" && r.subdivision == "delaunay")
+            .unwrap();
         assert_eq!(at16.cells, 16);
         let t = table(&rows);
         assert!(t.contains("four_room_optimized"));
