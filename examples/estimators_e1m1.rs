@@ -22,7 +22,12 @@ use std::collections::HashMap;
 use std::path::Path;
 
 /// Projected area of a merged cell: its pieces folded into one estimator state.
-fn area<E: AreaEstimator>(cx: &CellComplex, pieces: &[CellId], frame: &Frame, cache: &mut HashMap<CellId, E::State>) -> f64 {
+fn area<E: AreaEstimator>(
+    cx: &CellComplex,
+    pieces: &[CellId],
+    frame: &Frame,
+    cache: &mut HashMap<CellId, E::State>,
+) -> f64 {
     let state = cache.entry(pieces[0]).or_insert_with(|| {
         let mut s = E::piece(&cx.cells[pieces[0].idx()].poly);
         for p in &pieces[1..] {
@@ -45,14 +50,22 @@ fn quantile(xs: &mut [f64], q: f64) -> f64 {
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let model = args.get(1).map(String::as_str).unwrap_or("models/quake/e1m1.obj");
-    let h: HeuristicKind = args.get(2).map(|s| s.parse().expect("heuristic")).unwrap_or(HeuristicKind::Aspect);
+    let h: HeuristicKind = args
+        .get(2)
+        .map(|s| s.parse().expect("heuristic"))
+        .unwrap_or(HeuristicKind::Aspect);
     let pairs: usize = args.get(3).map(|s| s.parse().expect("pairs")).unwrap_or(300);
     let m = portalfind::model::load_model(Path::new(model)).expect("model");
     let cx = portalfind::pipeline::complex_of_unchecked(&m).expect("complex");
     let stop = h.default_stop();
 
-    println!("Model `{model}`, heuristic `{h}`, stop `{stop}`, {} active cells.\n", cx.active_cells().count());
-    println!("| estimator | collapses | final cells | final portal pairs | common prefix with union (collapses) | collapse seconds |");
+    println!(
+        "Model `{model}`, heuristic `{h}`, stop `{stop}`, {} active cells.\n",
+        cx.active_cells().count()
+    );
+    println!(
+        "| estimator | collapses | final cells | final portal pairs | common prefix with union (collapses) | collapse seconds |"
+    );
     println!("|---|---:|---:|---:|---:|---:|");
     let runs: Vec<(Estimator, Decimation)> = Estimator::ALL
         .iter()
@@ -68,7 +81,12 @@ fn main() {
         .collect();
     let union = &runs.iter().find(|r| r.0 == Estimator::Union).expect("union").1;
     for (e, d) in &runs {
-        let common = d.steps.iter().zip(&union.steps).take_while(|(a, b)| (a.a, a.b) == (b.a, b.b)).count();
+        let common = d
+            .steps
+            .iter()
+            .zip(&union.steps)
+            .take_while(|(a, b)| (a.a, a.b) == (b.a, b.b))
+            .count();
         println!(
             "| {e} | {} | {} | {} | {common} | {:.2} |",
             d.steps.len(),
@@ -106,13 +124,16 @@ fn main() {
                 let Some(i) = part.cell_of(c) else { continue };
                 let pieces = &part.cells[i].pieces;
                 let exact = area::<Union>(&cx, pieces, &frame, &mut cu);
-                if !(exact > 0.0) {
+                if exact.is_nan() || exact <= 0.0 {
                     continue;
                 }
-                let est = [area::<Bbox>(&cx, pieces, &frame, &mut cb), area::<Hull>(&cx, pieces, &frame, &mut ch)];
-                for k in 0..2 {
-                    rel[k].push((est[k] - exact).abs() / exact);
-                    signed[k].push((est[k] - exact) / exact);
+                let est = [
+                    area::<Bbox>(&cx, pieces, &frame, &mut cb),
+                    area::<Hull>(&cx, pieces, &frame, &mut ch),
+                ];
+                for (k, a) in est.iter().enumerate() {
+                    rel[k].push((a - exact).abs() / exact);
+                    signed[k].push((a - exact) / exact);
                 }
             }
         }

@@ -764,7 +764,11 @@ mod tests {
         for k in 0..40 {
             let (x, y) = (unit(), 10.0 * unit());
             let d = if k % 2 == 0 { 1.0 } else { -1.0 };
-            polys.push(hull2(vec![[x, y], [x + 9.0, y + d * 0.9 * y.min(10.0 - y)], [x + 0.1, y + 0.05]]));
+            polys.push(hull2(vec![
+                [x, y],
+                [x + 9.0, y + d * 0.9 * y.min(10.0 - y)],
+                [x + 0.1, y + 0.05],
+            ]));
         }
         let slices: Vec<&[P2]> = polys.iter().map(Vec::as_slice).collect();
         let with_grid = union_area(&polys);
@@ -777,7 +781,11 @@ mod tests {
         let delta_plain = union_area_delta(u, v);
         GRID_FROM_TEST.with(|c| c.set(GRID_FROM));
         assert_eq!(with_grid.to_bits(), plain.to_bits(), "{with_grid} vs {plain}");
-        assert_eq!(paired_grid.to_bits(), paired_plain.to_bits(), "{paired_grid} vs {paired_plain}");
+        assert_eq!(
+            paired_grid.to_bits(),
+            paired_plain.to_bits(),
+            "{paired_grid} vs {paired_plain}"
+        );
         assert_eq!(delta_grid.to_bits(), delta_plain.to_bits());
         assert!(with_grid > 10.0 && with_grid < 121.0);
     }
@@ -976,14 +984,23 @@ mod tests {
             let fast = union_area_paired(&slices);
             let reference = slab_union_area(&polys);
             let old = union_area(&polys);
-            assert!((fast - reference).abs() <= 1e-9 * reference.max(1.0), "paired {fast} slab {reference}");
-            assert!((fast - old).abs() <= 1e-9 * old.max(1.0), "paired {fast} union_area {old}");
+            assert!(
+                (fast - reference).abs() <= 1e-9 * reference.max(1.0),
+                "paired {fast} slab {reference}"
+            );
+            assert!(
+                (fast - old).abs() <= 1e-9 * old.max(1.0),
+                "paired {fast} union_area {old}"
+            );
             let kept = Prepared::of_slices(slices.iter().copied());
             paired_somewhere += EdgeTable::paired(&kept.polys).iter().filter(|&&p| p).count();
             // Split into two halves: the incremental form agrees too.
             let (u, v) = slices.split_at(slices.len() / 2);
             let inc = union_area_paired(u) + union_area_delta_slices(u, v);
-            assert!((inc - reference).abs() <= 1e-9 * reference.max(1.0), "incremental {inc} slab {reference}");
+            assert!(
+                (inc - reference).abs() <= 1e-9 * reference.max(1.0),
+                "incremental {inc} slab {reference}"
+            );
         }
         assert!(paired_somewhere > 1000, "{paired_somewhere}");
     }
