@@ -67,27 +67,35 @@ fn cross2(o: &P2, a: &P2, b: &P2) -> f64 {
 /// Convex hull (Andrew's monotone chain), counter-clockwise, without collinear points.
 /// The result depends only on the *set* of input points (they are sorted first).
 pub fn hull2(mut pts: Vec<P2>) -> Vec<P2> {
+    let mut h: Vec<P2> = Vec::with_capacity(2 * pts.len());
+    hull2_into(&mut pts, &mut h);
+    h
+}
+
+/// [`hull2`] of `pts` (sorted and deduplicated in place: a scratch buffer), appended to
+/// `out`: the same points in the same order, without a new allocation per call.
+pub(crate) fn hull2_into(pts: &mut Vec<P2>, out: &mut Vec<P2>) {
     pts.sort_unstable_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
     pts.dedup();
     if pts.len() < 3 {
-        return pts;
+        out.extend_from_slice(pts);
+        return;
     }
-    let mut h: Vec<P2> = Vec::with_capacity(2 * pts.len());
+    let base = out.len();
     for p in pts.iter() {
-        while h.len() >= 2 && cross2(&h[h.len() - 2], &h[h.len() - 1], p) <= 0.0 {
-            h.pop();
+        while out.len() >= base + 2 && cross2(&out[out.len() - 2], &out[out.len() - 1], p) <= 0.0 {
+            out.pop();
         }
-        h.push(*p);
+        out.push(*p);
     }
-    let lower = h.len() + 1;
+    let lower = out.len() + 1;
     for p in pts.iter().rev().skip(1) {
-        while h.len() >= lower && cross2(&h[h.len() - 2], &h[h.len() - 1], p) <= 0.0 {
-            h.pop();
+        while out.len() >= lower && cross2(&out[out.len() - 2], &out[out.len() - 1], p) <= 0.0 {
+            out.pop();
         }
-        h.push(*p);
+        out.push(*p);
     }
-    h.pop();
-    h
+    out.pop();
 }
 
 /// Signed area (positive counter-clockwise), relative to the first vertex.
@@ -231,6 +239,43 @@ impl BoxGrid {
         )
     }
 
+    /// Appends to `out` (sorted, without repeats) the polygons whose boxes may meet the
+    /// segment `a → b` grown by `tol`: for a segment crossing many grid cells diagonally,
+    /// only the cells along it (column by column), not all cells of its box — a long edge
+    /// would otherwise visit most of the grid. A superset of the polygons that can cover
+    /// any part of the segment (those meet its `tol`-neighbourhood), so the coverage
+    /// intervals are those of the plain scan.
+    fn candidates_seg(&self, a: &P2, b: &P2, tol: f64, out: &mut Vec<u32>) {
+        let sb = ([a[0].min(b[0]), a[1].min(b[1])], [a[0].max(b[0]), a[1].max(b[1])]);
+        let (r0, r1) = self.range(&sb, tol);
+        let dx = b[0] - a[0];
+        let slope = (b[1] - a[1]) / dx;
+        if (r1[0] - r0[0] + 1) * (r1[1] - r0[1] + 1) <= 8 || self.inv[0] <= 0.0 || !slope.is_finite() {
+            return self.candidates(&sb, tol, out);
+        }
+        out.clear();
+        let pad = 2.0 * tol;
+        let y_at = |x: f64| a[1] + (x.clamp(sb.0[0], sb.1[0]) - a[0]) * slope;
+        for x in r0[0]..=r1[0] {
+            let x0 = self.lo[0] + x as f64 / self.inv[0];
+            let x1 = self.lo[0] + (x + 1) as f64 / self.inv[0];
+            let (ya, yb) = (y_at(x0 - pad), y_at(x1 + pad));
+            let (ylo, yhi) = (ya.min(yb) - pad, ya.max(yb) + pad);
+            let rows = if ylo.is_finite() && yhi.is_finite() {
+                let (q0, q1) = self.range(&([x0, ylo], [x0, yhi]), 0.0);
+                (q0[1].max(r0[1]), q1[1].min(r1[1]))
+            } else {
+                (r0[1], r1[1])
+            };
+            for y in rows.0..=rows.1 {
+                let c = y * self.n[0] + x;
+                out.extend_from_slice(&self.items[self.start[c] as usize..self.start[c + 1] as usize]);
+            }
+        }
+        out.sort_unstable();
+        out.dedup();
+    }
+
     /// Appends to `out` (sorted, without repeats) the polygons whose boxes may meet `b`
     /// grown by `tol`.
     fn candidates(&self, b: &(P2, P2), tol: f64, out: &mut Vec<u32>) {
@@ -255,10 +300,14 @@ impl<'a> Prepared<'a> {
     /// polygon's edge that the sliver lay along). Dropping one changes the union by at most
     /// its own area, under `2 · tolerance · diameter`.
     fn new(polys: &'a [Vec<P2>]) -> Self {
+        Prepared::of_slices(polys.iter().map(Vec::as_slice))
+    }
+
+    /// As [`Prepared::new`], for polygons given as slices (of one flat buffer, say).
+    fn of_slices(polys: impl Iterator<Item = &'a [P2]>) -> Self {
         let mut kept: Vec<(&[P2], (P2, P2), f64)> = polys
-            .iter()
             .filter(|p| p.len() >= 3)
-            .map(|p| (p.as_slice(), bbox2(p), polygon_area(p)))
+            .map(|p| (p, bbox2(p), polygon_area(p)))
             .filter(|e| e.2 > 0.0)
             .collect();
         let (lo, hi) = bbox2(kept.iter().flat_map(|(_, b, _)| [&b.0, &b.1]));
@@ -288,7 +337,11 @@ impl<'a> Prepared<'a> {
     /// neither the union nor its boundary. Projections of small faces are often hidden behind
     /// a few large ones, so this removes many of them cheaply.
     fn pruned(polys: &'a [Vec<P2>]) -> Self {
-        let all = Prepared::new(polys);
+        Prepared::pruned_of(Prepared::new(polys))
+    }
+
+    /// [`Prepared::pruned`] of an already prepared set.
+    fn pruned_of(all: Prepared<'a>) -> Self {
         if all.polys.len() <= 2 {
             return all;
         }
@@ -350,7 +403,7 @@ impl<'a> Prepared<'a> {
             // Candidates in increasing index order, like the plain loop: same intervals.
             Some(g) => {
                 let mut c = self.scratch.borrow_mut();
-                g.candidates(&sb, tol, &mut c);
+                g.candidates_seg(a, b, tol, &mut c);
                 for &j in c.iter() {
                     visit(j as usize);
                 }
@@ -490,7 +543,10 @@ pub fn union_area(polys: &[Vec<P2>]) -> f64 {
 /// before the `V` polygons, so `area(∪U) + delta` equals `union_area` of `U ++ V` up to
 /// rounding.
 pub fn union_area_delta(u: &[Vec<P2>], v: &[Vec<P2>]) -> f64 {
-    let (u, v) = (Prepared::pruned(u), Prepared::new(v));
+    delta_prepared(Prepared::pruned(u), Prepared::new(v))
+}
+
+fn delta_prepared(u: Prepared, v: Prepared) -> f64 {
     if v.polys.is_empty() {
         return 0.0;
     }
@@ -529,6 +585,116 @@ pub fn union_area_delta(u: &[Vec<P2>], v: &[Vec<P2>]) -> f64 {
         }
     }
     0.5 * total
+}
+
+/// [`union_area`] of polygons given as slices, without the pruning pass, and integrating
+/// only the edges that are not *paired*: an edge `a → b` of one polygon whose exact reverse
+/// `b → a` is an edge of exactly one other polygon (and no other polygon has `a → b`) lies
+/// on the common boundary of two abutting polygons; each of the two edges is covered by
+/// the other polygon (opposite sides: the tie rule counts the shared line as inside), so
+/// their contributions vanish and are skipped. The projected front faces of a solid tile
+/// its silhouette region this way: only the silhouette edges (and the edges of overlapping
+/// layers) are integrated. Same area as [`union_area`] up to rounding.
+pub fn union_area_paired(polys: &[&[P2]]) -> f64 {
+    let u = Prepared::of_slices(polys.iter().copied());
+    match u.polys.len() {
+        0 => return 0.0,
+        1 => return polygon_area(u.polys[0]),
+        _ => {}
+    }
+    let ((lo, hi), extent) = u.extent(None);
+    let tol = UNION_COLLINEAR_REL * extent;
+    let c = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
+    let paired = EdgeTable::paired(&u.polys);
+    let mut total = 0.0;
+    let mut iv: Vec<(f64, f64)> = Vec::new();
+    let mut e = 0;
+    for (i, p) in u.polys.iter().enumerate() {
+        let n = p.len();
+        for k in 0..n {
+            let skip = paired[e];
+            e += 1;
+            if skip {
+                continue;
+            }
+            let (a, b) = (p[k], p[(k + 1) % n]);
+            iv.clear();
+            u.cover(&a, &b, Some(i), |j| j < i, tol, &mut iv);
+            merge_intervals(&mut iv);
+            total += edge_integral(&a, &b, &c, None, &iv);
+        }
+    }
+    0.5 * total
+}
+
+/// Directed edges keyed by their endpoints' bit patterns (open addressing, linear probing).
+struct EdgeTable {
+    keys: Vec<[u64; 4]>,
+    counts: Vec<u32>,
+    mask: usize,
+}
+
+impl EdgeTable {
+    fn key(a: &P2, b: &P2) -> [u64; 4] {
+        [a[0].to_bits(), a[1].to_bits(), b[0].to_bits(), b[1].to_bits()]
+    }
+
+    fn slot(&self, k: &[u64; 4]) -> usize {
+        let mut h: u64 = 0x243F_6A88_85A3_08D3;
+        for x in k {
+            h = (h ^ x).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+            h ^= h >> 29;
+        }
+        h as usize & self.mask
+    }
+
+    /// The slot of `k`, or of the empty slot where it would go (count 0).
+    fn find(&self, k: &[u64; 4]) -> usize {
+        let mut i = self.slot(k);
+        while self.counts[i] != 0 && self.keys[i] != *k {
+            i = (i + 1) & self.mask;
+        }
+        i
+    }
+
+    /// For every edge of `polys` in order (polygon by polygon, edge `k` from vertex `k`):
+    /// whether it is paired (see [`union_area_paired`]).
+    fn paired(polys: &[&[P2]]) -> Vec<bool> {
+        let m: usize = polys.iter().map(|p| p.len()).sum();
+        let size = (2 * m).next_power_of_two().max(16);
+        let mut t = EdgeTable {
+            keys: vec![[0; 4]; size],
+            counts: vec![0; size],
+            mask: size - 1,
+        };
+        let edges = || {
+            polys
+                .iter()
+                .flat_map(|p| (0..p.len()).map(move |k| (p[k], p[(k + 1) % p.len()])))
+        };
+        for (a, b) in edges() {
+            let k = EdgeTable::key(&a, &b);
+            let i = t.find(&k);
+            t.keys[i] = k;
+            t.counts[i] += 1;
+        }
+        edges()
+            .map(|(a, b)| {
+                // A zero-length edge has itself as its reverse: never paired.
+                a != b
+                    && t.counts[t.find(&EdgeTable::key(&a, &b))] == 1
+                    && t.counts[t.find(&EdgeTable::key(&b, &a))] == 1
+            })
+            .collect()
+    }
+}
+
+/// [`union_area_delta`] of polygons given as slices.
+pub fn union_area_delta_slices(u: &[&[P2]], v: &[&[P2]]) -> f64 {
+    delta_prepared(
+        Prepared::pruned_of(Prepared::of_slices(u.iter().copied())),
+        Prepared::of_slices(v.iter().copied()),
+    )
 }
 
 /// The parameter interval of segment `a → b` inside convex CCW polygon `q`, or `None`.
@@ -594,14 +760,32 @@ mod tests {
                 polys.push(hull2(p));
             }
         }
+        // Long thin diagonal triangles, which the grid walks cell by cell along their edges.
+        for k in 0..40 {
+            let (x, y) = (unit(), 10.0 * unit());
+            let d = if k % 2 == 0 { 1.0 } else { -1.0 };
+            polys.push(hull2(vec![
+                [x, y],
+                [x + 9.0, y + d * 0.9 * y.min(10.0 - y)],
+                [x + 0.1, y + 0.05],
+            ]));
+        }
+        let slices: Vec<&[P2]> = polys.iter().map(Vec::as_slice).collect();
         let with_grid = union_area(&polys);
+        let paired_grid = union_area_paired(&slices);
         let (u, v) = polys.split_at(170);
         let delta_grid = union_area_delta(u, v);
         GRID_FROM_TEST.with(|c| c.set(usize::MAX));
         let plain = union_area(&polys);
+        let paired_plain = union_area_paired(&slices);
         let delta_plain = union_area_delta(u, v);
         GRID_FROM_TEST.with(|c| c.set(GRID_FROM));
         assert_eq!(with_grid.to_bits(), plain.to_bits(), "{with_grid} vs {plain}");
+        assert_eq!(
+            paired_grid.to_bits(),
+            paired_plain.to_bits(),
+            "{paired_grid} vs {paired_plain}"
+        );
         assert_eq!(delta_grid.to_bits(), delta_plain.to_bits());
         assert!(with_grid > 10.0 && with_grid < 121.0);
     }
@@ -686,6 +870,146 @@ mod tests {
             let (x, y) = (union_area(&clean), union_area(&noisy));
             assert!((x - y).abs() < 1e-9, "clean {x} with slivers {y}");
         }
+    }
+
+    /// Brute-force reference: vertical slabs between all vertex abscissae and all edge
+    /// crossings; inside a slab the union's cross-section length is linear in `x`, so the
+    /// length at the slab's middle times its width is its exact area.
+    fn slab_union_area(polys: &[Vec<P2>]) -> f64 {
+        let polys: Vec<&Vec<P2>> = polys.iter().filter(|p| p.len() >= 3).collect();
+        let edges: Vec<(P2, P2)> = polys
+            .iter()
+            .flat_map(|p| (0..p.len()).map(move |k| (p[k], p[(k + 1) % p.len()])))
+            .collect();
+        let mut xs: Vec<f64> = polys.iter().flat_map(|p| p.iter().map(|v| v[0])).collect();
+        for (i, &(p, q)) in edges.iter().enumerate() {
+            for &(r, s) in &edges[i + 1..] {
+                let d = [q[0] - p[0], q[1] - p[1]];
+                let e = [s[0] - r[0], s[1] - r[1]];
+                let den = d[0] * e[1] - d[1] * e[0];
+                if den == 0.0 {
+                    continue;
+                }
+                let w = [r[0] - p[0], r[1] - p[1]];
+                let t = (w[0] * e[1] - w[1] * e[0]) / den;
+                let u = (w[0] * d[1] - w[1] * d[0]) / den;
+                if (0.0..=1.0).contains(&t) && (0.0..=1.0).contains(&u) {
+                    xs.push(p[0] + t * d[0]);
+                }
+            }
+        }
+        xs.sort_by(f64::total_cmp);
+        xs.dedup();
+        let mut area = 0.0;
+        for w in xs.windows(2) {
+            let xm = 0.5 * (w[0] + w[1]);
+            let mut iv: Vec<(f64, f64)> = Vec::new();
+            for p in &polys {
+                let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+                for k in 0..p.len() {
+                    let (a, b) = (p[k], p[(k + 1) % p.len()]);
+                    if (a[0] - xm) * (b[0] - xm) < 0.0 {
+                        let y = a[1] + (xm - a[0]) / (b[0] - a[0]) * (b[1] - a[1]);
+                        lo = lo.min(y);
+                        hi = hi.max(y);
+                    }
+                }
+                if hi > lo {
+                    iv.push((lo, hi));
+                }
+            }
+            merge_intervals(&mut iv);
+            area += (w[1] - w[0]) * iv.iter().map(|(a, b)| b - a).sum::<f64>();
+        }
+        area
+    }
+
+    /// Random sets with every case the tie rules and the pairing see: tilings of a grid
+    /// by triangles (exactly shared edges: paired), random convex polygons overlapping
+    /// them, duplicates (an edge twice on one side: not paired), nested polygons, and
+    /// rectangles sharing edge lines.
+    fn random_sets(seed: u64, count: usize) -> Vec<Vec<Vec<P2>>> {
+        let mut rng = crate::base::rng::SplitMix64(seed);
+        let mut unit = || (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
+        let mut sets = Vec::new();
+        for s in 0..count {
+            let mut polys: Vec<Vec<P2>> = Vec::new();
+            // A jittered grid of n × n quads, each split into two triangles along a diagonal.
+            let n = 2 + s % 5;
+            let jit: Vec<Vec<P2>> = (0..=n)
+                .map(|i| {
+                    (0..=n)
+                        .map(|j| [i as f64 + 0.3 * (unit() - 0.5), j as f64 + 0.3 * (unit() - 0.5)])
+                        .collect()
+                })
+                .collect();
+            for i in 0..n {
+                for j in 0..n {
+                    let (a, b, c, d) = (jit[i][j], jit[i + 1][j], jit[i + 1][j + 1], jit[i][j + 1]);
+                    if unit() < 0.85 {
+                        polys.push(hull2(vec![a, b, c]));
+                        polys.push(hull2(vec![a, c, d]));
+                    }
+                }
+            }
+            for _ in 0..(s % 7) {
+                let (x, y) = (n as f64 * unit(), n as f64 * unit());
+                let r = 0.2 + unit();
+                polys.push(hull2((0..6).map(|_| [x + r * unit(), y + r * unit()]).collect()));
+            }
+            if s % 3 == 0 && !polys.is_empty() {
+                let k = (unit() * polys.len() as f64) as usize % polys.len();
+                polys.push(polys[k].clone());
+            }
+            if s % 4 == 1 {
+                polys.push(rect(0.2, 0.2, 0.4, 0.4));
+                polys.push(rect(-1.0, 0.0, 0.0, 1.0));
+                polys.push(rect(-1.0, 0.5, 0.0, 1.5));
+            }
+            // Shuffle so that the tie rules meet every order.
+            for i in (1..polys.len()).rev() {
+                let j = (unit() * (i + 1) as f64) as usize % (i + 1);
+                polys.swap(i, j);
+            }
+            sets.push(polys);
+        }
+        sets
+    }
+
+    #[test]
+    fn paired_union_matches_the_slab_reference_and_union_area() {
+        let mut paired_somewhere = 0;
+        for polys in random_sets(2026, 60) {
+            let slices: Vec<&[P2]> = polys.iter().map(Vec::as_slice).collect();
+            let fast = union_area_paired(&slices);
+            let reference = slab_union_area(&polys);
+            let old = union_area(&polys);
+            assert!(
+                (fast - reference).abs() <= 1e-9 * reference.max(1.0),
+                "paired {fast} slab {reference}"
+            );
+            assert!(
+                (fast - old).abs() <= 1e-9 * old.max(1.0),
+                "paired {fast} union_area {old}"
+            );
+            let kept = Prepared::of_slices(slices.iter().copied());
+            paired_somewhere += EdgeTable::paired(&kept.polys).iter().filter(|&&p| p).count();
+            // Split into two halves: the incremental form agrees too.
+            let (u, v) = slices.split_at(slices.len() / 2);
+            let inc = union_area_paired(u) + union_area_delta_slices(u, v);
+            assert!(
+                (inc - reference).abs() <= 1e-9 * reference.max(1.0),
+                "incremental {inc} slab {reference}"
+            );
+        }
+        assert!(paired_somewhere > 1000, "{paired_somewhere}");
+    }
+
+    #[test]
+    fn slab_reference_is_right_on_known_unions() {
+        assert!((slab_union_area(&[rect(0.0, 0.0, 2.0, 2.0), rect(1.0, 1.0, 3.0, 3.0)]) - 7.0).abs() < 1e-12);
+        let tri = vec![vec![[0.0, 0.0], [2.0, 0.0], [0.0, 2.0]], rect(0.0, 0.0, 1.0, 1.0)];
+        assert!((slab_union_area(&tri) - 2.0).abs() < 1e-12);
     }
 
     #[test]

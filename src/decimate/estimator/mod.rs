@@ -5,7 +5,7 @@
 //! |-----------|-----------------------------------------------|----------------|-------|
 //! | `bbox`  | area of the bounding rectangle, axis-aligned in the plane's canonical frame ([`Frame`]) — the thesis's "bounding rectangle" | 3D convex hull | insert the smaller hull's vertices into the larger: `O(k·h)` |
 //! | `hull`  | area of the 2D convex hull of the projected cell | 3D convex hull | as `bbox` |
-//! | `union` | exact area of the union of the projected convex pieces | boundary faces keyed by patch (below) | symmetric difference: `O(size of the absorbed cell's boundary)` |
+//! | `union` | exact area of the union of the projected convex pieces | boundary faces keyed by patch (below) | symmetric difference: `O(size of the absorbed cell's boundary)` (hash look-ups) |
 //!
 //! **Why the 3D hull suffices for `bbox` and `hull`.** Orthogonal projection is linear, so
 //! the projection of the convex hull of a point set is the convex hull of the projected
@@ -21,15 +21,20 @@
 //! projections, which is the projection of the solid they fill: the union of the
 //! projections of its *front* boundary faces (see [`Boundary`]). The state is the set of
 //! boundary faces keyed by patch; a merge is a symmetric difference (cost: the absorbed
-//! cell's boundary). On an unchanged plane the survivor's area grows incrementally: the
-//! stored area plus what the absorbed cell's front faces add to the survivor's front
-//! faces they overlap ([`union_area_delta`](super::project::union_area_delta)). On a new plane (a pair whose portal set
-//! changed) the whole front is unioned ([`union_area`](super::project::union_area)): an exact area on a new direction
-//! depends on the cell's whole silhouette, so no state kept for other directions can make
-//! that cheaper than the silhouette's size. Front faces overlap only where the solid has
-//! several layers along the direction — not as deep as its pieces pile up, which made a
-//! union over pieces quadratic in a merged room's size (e1m1 at `cells:60`: 807 s with
-//! convex blocks of pieces, 384 s with boundary faces; `hull` takes under a second).
+//! cell's boundary). A merge that brings no face (the absorbed cell was enclosed) changes
+//! no projection, and `absorb` says so. On an unchanged plane the survivor's area grows
+//! incrementally: the stored area plus what the absorbed cell's *fresh* front faces add
+//! to the survivor's front faces they overlap
+//! ([`union_area_delta_slices`](super::project::union_area_delta_slices); its shared
+//! front faces project inside the survivor). On a new plane (a pair whose portal set
+//! changed) the whole front is unioned
+//! ([`union_area_paired`](super::project::union_area_paired)): neighbouring front faces
+//! share edges exactly, and only the unshared edges (the silhouette, and the edges of
+//! overlapping layers) are integrated; an exact area on a new direction depends on the
+//! cell's whole silhouette, so no state kept for other directions can make that cheaper
+//! than one pass over its front faces. History: a union over pieces was quadratic in a
+//! merged room's size (e1m1 at `cells:60`: 807 s with convex blocks of pieces, 384 s with
+//! boundary faces unioned edge by edge; `hull` takes under a second).
 //!
 //! # Adding an estimator
 //!
@@ -60,8 +65,9 @@ pub trait AreaEstimator: 'static {
     /// Size of the state (3D hull vertices, boundary faces), for the statistics.
     fn size(state: &Self::State) -> usize;
     /// Merges `other` into `state` (the cell that absorbs it); returns whether any
-    /// projected measure of `state` may have changed. `false` must be exact: the state is
-    /// then untouched, and the survivor's other pairs keep their weights.
+    /// projected measure of `state` may have changed. `false` must be exact: every
+    /// projected area of the state is then what it was in exact arithmetic (the survivor's
+    /// other pairs keep their stored weights without being re-weighed).
     fn absorb(state: &mut Self::State, other: Self::State) -> bool;
     /// Projected area on the plane of `frame` (the engine maps non-finite values to 0 and
     /// negative ones to 0).
