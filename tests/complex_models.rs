@@ -395,7 +395,11 @@ fn run_exits_0_only_on_a_valid_complex() {
         });
         eprintln!("{}: exit {:?}, validate {valid:?}", f.display(), st.status.code());
         if st.status.success() {
-            assert!(matches!(valid, Some(Ok(()))), "{}: run exited 0 on {valid:?}", f.display());
+            assert!(
+                matches!(valid, Some(Ok(()))),
+                "{}: run exited 0 on {valid:?}",
+                f.display()
+            );
         }
     }
     let _ = std::fs::remove_dir_all(&tmp);
