@@ -356,10 +356,16 @@ pub fn build_cells(
     let cells = build_cells_unchecked(model, label, settings, progress)?;
     // The cheap structural check on every build: never decimate (or write) a broken
     // complex. The full validation (`CellComplex::validate`) is `portalfind complex`'s.
-    cells.cx.check_valid().map_err(|source| PipelineError::InvalidComplex {
-        model: label.display().to_string(),
-        source,
-    })?;
+    // A model polygon crossing a cell (a wall the portal graph does not see) is as
+    // invalid: `run` must not exit 0 on it.
+    cells
+        .cx
+        .check_valid()
+        .and_then(|()| cells.cx.check_no_crossing(model))
+        .map_err(|source| PipelineError::InvalidComplex {
+            model: label.display().to_string(),
+            source,
+        })?;
     Ok(cells)
 }
 

@@ -342,3 +342,65 @@ fn rounded_ramp_room_does_not_leak() {
         assert!((v - expect).abs() < slack, "{n} {step}: {v} vs {expect}");
     }
 }
+
+/// The crossing check the pipeline runs on every build (`check_no_crossing`) refuses a
+/// model polygon through the interior of a cell: here a wall across the middle of a box
+/// room that the complex was not built with.
+#[test]
+fn crossing_check_refuses_a_polygon_through_a_cell() {
+    let s = scenes::box_room();
+    let (m, cx) = build(&s);
+    cx.check_no_crossing(&m).expect("the room's own walls cross nothing");
+    let (lo, hi) = m.bbox();
+    let mid = (lo[0] + hi[0]) / 2.0;
+    let mut vs = s.vertices.clone();
+    let k = vs.len() as u32;
+    let (a, b) = (lo[1] + 0.1 * (hi[1] - lo[1]), lo[1] + 0.9 * (hi[1] - lo[1]));
+    let (c, d) = (lo[2] + 0.1 * (hi[2] - lo[2]), lo[2] + 0.9 * (hi[2] - lo[2]));
+    vs.extend([[mid, a, c], [mid, b, c], [mid, b, d], [mid, a, d]]);
+    let mut ps = s.polygons.clone();
+    ps.push(vec![k, k + 1, k + 2, k + 3]);
+    let m2 = from_soup("test", vs, ps).expect("model");
+    let e = cx.check_no_crossing(&m2).expect_err("a wall through the room's cells");
+    assert!(e.to_string().contains("crosses"), "{e}");
+}
+
+/// `run` never exits 0 on an invalid complex: on every fuzz find (hard inputs, some of
+/// which the complex still gets wrong), an exit status of 0 implies that the complex
+/// passes the full validation.
+#[test]
+fn run_exits_0_only_on_a_valid_complex() {
+    let root = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/fuzz/pipeline");
+    let mut files = Vec::new();
+    for sub in ["", "open", "known"] {
+        if let Ok(d) = std::fs::read_dir(root.join(sub)) {
+            files.extend(d.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.is_file()));
+        }
+    }
+    files.sort();
+    assert!(!files.is_empty());
+    let tmp = std::env::temp_dir().join(format!("pf-run-valid-{}", std::process::id()));
+    for (i, f) in files.iter().enumerate() {
+        let out = tmp.join(i.to_string());
+        let st = std::process::Command::new(env!("CARGO_BIN_EXE_portalfind"))
+            .arg("run")
+            .arg(f)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .expect("run the binary");
+        let valid = load_model(f).ok().map(|m| {
+            let cx = portalfind::pipeline::complex_of_unchecked(&m).expect("complex");
+            cx.validate(&m).map(|_| ()).map_err(|e| e.to_string())
+        });
+        eprintln!("{}: exit {:?}, validate {valid:?}", f.display(), st.status.code());
+        if st.status.success() {
+            assert!(
+                matches!(valid, Some(Ok(()))),
+                "{}: run exited 0 on {valid:?}",
+                f.display()
+            );
+        }
+    }
+    let _ = std::fs::remove_dir_all(&tmp);
+}

@@ -332,6 +332,14 @@ impl CellComplex {
                     };
                     match split {
                         Some((f, b)) => {
+                            // Faces of the pieces other than the section may lie within
+                            // the attach distance of the plane too: a face nearly coplanar
+                            // with it that the plane crossed at a shallow angle (a noisy
+                            // floor's tetrahedron face). The pieces are marked, so they are
+                            // not visited again: attach here, or that face stays open under
+                            // the polygon (a leak through the wall).
+                            self.attach_on_faces(f, &polygon, &plane, pid, true);
+                            self.attach_on_faces(b, &polygon, &plane, pid, true);
                             pl.on_split(c, f, b, &self.cells);
                             next.push(f);
                             next.push(b);

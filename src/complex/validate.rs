@@ -239,8 +239,9 @@ impl CellComplex {
     /// No model polygon (where it was placed: projected onto its support plane) crosses the
     /// interior of an alive cell, neither with a fragment above the area tolerance nor by
     /// covering the cell's whole cross-section up to cracks (`crack_crossing`), whatever
-    /// its size. Uses a uniform grid over polygon bounding boxes.
-    fn check_no_crossing(&self, model: &Model) -> Result<(), ComplexError> {
+    /// its size. Uses a uniform grid over polygon bounding boxes. The pipeline runs it after
+    /// [`check_valid`](Self::check_valid) on every build, so `run` refuses such a complex.
+    pub fn check_no_crossing(&self, model: &Model) -> Result<(), ComplexError> {
         let tol = &self.tol;
         let (lo, hi) = model.bbox();
         let n = model.polygons.len().max(1);
@@ -289,6 +290,9 @@ impl CellComplex {
                 continue;
             }
             let (a, b) = c.poly.aabb();
+            // Once per cell, not per candidate polygon.
+            let verts = c.poly.vertices();
+            let face_planes = c.poly.planes();
             for x in cell_of(&a, 0)..=cell_of(&b, 0) {
                 for y in cell_of(&a, 1)..=cell_of(&b, 1) {
                     for z in cell_of(&a, 2)..=cell_of(&b, 2) {
@@ -303,7 +307,7 @@ impl CellComplex {
                             // crossing: polygons are placed on shared support planes (within
                             // `coplanar`) and slabs thinner than `weld` are never split.
                             let thick = tol.coplanar_abs().max(tol.weld_abs());
-                            let ds: Vec<f64> = c.poly.vertices().iter().map(|v| plane.eval(v)).collect();
+                            let ds: Vec<f64> = verts.iter().map(|v| plane.eval(v)).collect();
                             let (front, back) = ds.iter().fold((0.0f64, 0.0f64), |(f, b), &d| (f.max(d), b.max(-d)));
                             if front <= thick
                                 || back <= thick
@@ -312,17 +316,15 @@ impl CellComplex {
                                 continue;
                             }
                             let mut cur = Some(poly.clone());
-                            for f in c.poly.planes() {
-                                cur = cur.and_then(|q| q.split(&f, tol).1);
+                            for f in &face_planes {
+                                cur = cur.and_then(|q| q.split(f, tol).1);
                             }
                             if let Some(q) = cur {
                                 // The fragment crosses the interior only if its centroid lies
                                 // deeper than the snapping tolerance inside every face plane.
                                 let area = q.area();
                                 let ctr = q.centroid();
-                                let depth = c
-                                    .poly
-                                    .planes()
+                                let depth = face_planes
                                     .iter()
                                     .map(|f| -f.normalized().eval(&ctr))
                                     .fold(f64::INFINITY, f64::min);
