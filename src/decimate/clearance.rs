@@ -62,7 +62,7 @@
 //! its saddles instead of projected areas.
 
 use std::cmp::Ordering;
-use std::collections::{BTreeMap, BinaryHeap};
+use std::collections::BinaryHeap;
 use std::time::Instant;
 
 use rayon::prelude::*;
@@ -110,15 +110,10 @@ pub struct CellField {
 
 /// The lowest clearance on the segment `p..q` (which lies in free space), by marching:
 /// a step is a quarter of the clearance where it starts (the field is 1-Lipschitz, so the
-/// minimum is missed by at most that), and at least 1/64 of the segment.
-fn segment_min(field: &ClearanceField, p: [f64; 3], q: [f64; 3]) -> f64 {
-    segment_min_from(field, p, field.distance(p), q, f64::NEG_INFINITY)
-}
-
-/// [`segment_min`] given `dp`, the clearance at `p` (same bits as `field.distance(p)`),
-/// stopping at the first sample at or below `floor`: the result is exact when above
-/// `floor`, else some value at or below `floor` (callers that only take a maximum with
-/// `floor` need no more). Each sample's query is bounded by the previous sample's
+/// minimum is missed by at most that), and at least 1/64 of the segment. `dp` is the
+/// clearance at `p` (same bits as `field.distance(p)`). The marching stops at the first
+/// sample at or below `floor`: the result is exact when above `floor`, else some value at
+/// or below `floor` (callers that only take a maximum with `floor` need no more). Each sample's query is bounded by the previous sample's
 /// clearance plus the step (the field is 1-Lipschitz), which prunes the search without
 /// changing its answer ([`ClearanceField::distance_below`]).
 fn segment_min_from(field: &ClearanceField, p: [f64; 3], dp: f64, q: [f64; 3], floor: f64) -> f64 {
@@ -413,11 +408,88 @@ struct Comp {
     peak: f64,
     volume: f64,
     pieces: usize,
-    links: BTreeMap<u32, Link>,
+    links: Links,
     /// The complex cells in the component (kept only when the aperture is needed).
     members: Vec<u32>,
     /// The 3D convex hull of the members' vertices, built when first needed.
     hull: Option<Hull3>,
+}
+
+/// A component's links by neighbour, sorted by the neighbour's id: the subset of
+/// `BTreeMap<u32, Link>`'s interface the merge uses, in a flat vector (a B-tree node holds
+/// eleven links, about 1.2 kB, for components that mostly have three or four neighbours).
+/// Iteration is in key order, as the map's.
+#[derive(Clone, Debug, Default)]
+struct Links(Vec<(u32, Link)>);
+
+/// A slot of [`Links`] ([`Links::entry`]).
+struct LinkSlot<'a> {
+    links: &'a mut Links,
+    at: Result<usize, usize>,
+    key: u32,
+}
+
+impl<'a> LinkSlot<'a> {
+    fn or_insert(self, v: Link) -> &'a mut Link {
+        let i = match self.at {
+            Ok(i) => i,
+            Err(i) => {
+                self.links.0.insert(i, (self.key, v));
+                i
+            }
+        };
+        &mut self.links.0[i].1
+    }
+}
+
+impl Links {
+    fn find(&self, k: u32) -> Result<usize, usize> {
+        self.0.binary_search_by_key(&k, |e| e.0)
+    }
+    fn len(&self) -> usize {
+        self.0.len()
+    }
+    fn get(&self, k: &u32) -> Option<&Link> {
+        self.find(*k).ok().map(|i| &self.0[i].1)
+    }
+    fn insert(&mut self, k: u32, v: Link) -> Option<Link> {
+        match self.find(k) {
+            Ok(i) => Some(std::mem::replace(&mut self.0[i].1, v)),
+            Err(i) => {
+                self.0.insert(i, (k, v));
+                None
+            }
+        }
+    }
+    fn remove(&mut self, k: &u32) -> Option<Link> {
+        self.find(*k).ok().map(|i| self.0.remove(i).1)
+    }
+    fn entry(&mut self, k: u32) -> LinkSlot<'_> {
+        let at = self.find(k);
+        LinkSlot {
+            links: self,
+            at,
+            key: k,
+        }
+    }
+    fn keys(&self) -> impl Iterator<Item = &u32> + '_ {
+        self.0.iter().map(|e| &e.0)
+    }
+}
+
+impl std::ops::Index<&u32> for Links {
+    type Output = Link;
+    fn index(&self, k: &u32) -> &Link {
+        self.get(k).expect("a linked neighbour")
+    }
+}
+
+impl<'a> IntoIterator for &'a Links {
+    type Item = (&'a u32, &'a Link);
+    type IntoIter = std::iter::Map<std::slice::Iter<'a, (u32, Link)>, fn(&'a (u32, Link)) -> (&'a u32, &'a Link)>;
+    fn into_iter(self) -> Self::IntoIter {
+        self.0.iter().map(|(k, l)| (k, l))
+    }
 }
 
 /// The aperture gate of a persistence merge: a pair whose persistence is at least `from`
@@ -476,14 +548,34 @@ pub(crate) fn run(cx: &CellComplex, settings: &Settings, progress: &mut dyn FnMu
         .heuristic()
         .aperture_gate()
         .filter(|_| !matches!(settings.stop, StopRule::Cells(_)));
-    run_inner(cx, settings, gate, None, progress)
+    run_inner(cx, settings, gate, None, None, progress)
+}
+
+/// The run to the end (stop `none`) and, from the same pass, the run stopped at
+/// `threshold:r` (a prefix of it: up to the first pair popped at or above `r`, which
+/// is where the stopped run would have stopped; same steps, stop reason and counters).
+pub(crate) fn run_to_end_and_cut(
+    cx: &CellComplex,
+    settings: &Settings,
+    r: f64,
+    progress: &mut dyn FnMut(usize, usize),
+) -> (Decimation, Decimation) {
+    let full_settings = Settings {
+        stop: StopRule::None,
+        ..*settings
+    };
+    let gate = settings.heuristic.heuristic().aperture_gate();
+    let mut cut = None;
+    let full = run_inner(cx, &full_settings, gate, None, Some((r, &mut cut)), progress);
+    let stopped = full.cut(cx, settings, cut);
+    (stopped, full)
 }
 
 /// The merge with `gate` (overriding the heuristic's), recording every pair it looks at
 /// with the components' projected sections (slow: for diagnostics).
 pub fn trace(cx: &CellComplex, settings: &Settings, gate: Option<ApertureGate>) -> (Decimation, Vec<TraceStep>) {
     let mut t = Vec::new();
-    let d = run_inner(cx, settings, gate, Some(&mut t), &mut |_, _| {});
+    let d = run_inner(cx, settings, gate, Some(&mut t), None, &mut |_, _| {});
     (d, t)
 }
 
@@ -506,6 +598,7 @@ fn run_inner(
     settings: &Settings,
     gate: Option<ApertureGate>,
     mut trace: Option<&mut Vec<TraceStep>>,
+    mut cut: Option<(f64, &mut Option<super::Cut>)>,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Decimation {
     let t0 = Instant::now();
@@ -622,6 +715,19 @@ fn run_inner(
                 threshold: r,
                 next_weight: w,
             };
+        }
+        // Where a `threshold:r` run would have stopped (the run goes on to the end).
+        if let Some((r, c)) = cut.as_mut()
+            && c.is_none()
+            && w >= *r
+        {
+            **c = Some(super::Cut {
+                steps: steps.len(),
+                next_weight: w,
+                weights_computed: stats.weights_computed,
+                reweighs_skipped: stats.reweighs_skipped,
+                collapse_seconds: t1.elapsed().as_secs_f64(),
+            });
         }
         let gated = gate.filter(|g| {
             w >= g.from && g.holds_ball(comps[a].peak, comps[a].volume) && g.holds_ball(comps[b].peak, comps[b].volume)
@@ -863,6 +969,10 @@ mod tests {
             })
             .collect();
         (value, passage, best)
+    }
+
+    fn segment_min(field: &ClearanceField, p: [f64; 3], q: [f64; 3]) -> f64 {
+        segment_min_from(field, p, field.distance(p), q, f64::NEG_INFINITY)
     }
 
     /// `refined_passage` as first written (every leg marched to its end).

@@ -313,7 +313,11 @@ mod tests {
             };
             // The Lipschitz bound, the exact value, and bounds too low (a second search).
             for ub in [dprev + step, want, want * 0.5, 0.0, f64::INFINITY, f64::NAN] {
-                assert_eq!(f.distance_below(p, ub).to_bits(), want.to_bits(), "query {i}, bound {ub}");
+                assert_eq!(
+                    f.distance_below(p, ub).to_bits(),
+                    want.to_bits(),
+                    "query {i}, bound {ub}"
+                );
             }
             (prev, dprev) = (p, want);
         }

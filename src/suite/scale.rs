@@ -41,6 +41,15 @@ pub struct ScaleRow {
     pub stages: Vec<(String, f64)>,
     /// The run's "final cells" line.
     pub final_cells: Option<usize>,
+    /// The run's peak resident memory (MiB) at the end of each stage, as it printed it.
+    #[serde(default)]
+    pub memory: Vec<(String, f64)>,
+    /// Finite tetrahedra (the run's `result.json`).
+    #[serde(default)]
+    pub tetrahedra: Option<usize>,
+    /// Active cells at the start of the decimation (the run's "active cells" line).
+    #[serde(default)]
+    pub active_cells: Option<usize>,
 }
 
 /// All sizes and the fitted exponents.
@@ -135,21 +144,61 @@ pub fn parse_stages(stdout: &str) -> Vec<(String, f64)> {
     out
 }
 
-fn final_cells(stdout: &str) -> Option<usize> {
-    let line = stdout.lines().find(|l| l.starts_with("final cells"))?;
+/// The memory table `run` prints: rows between the "peak memory after MiB" header and the
+/// next blank line.
+pub fn parse_memory(stdout: &str) -> Vec<(String, f64)> {
+    let mut out = Vec::new();
+    let mut inside = false;
+    for line in stdout.lines() {
+        let t = line.trim_end();
+        if t.starts_with("peak memory after") && t.ends_with("MiB") {
+            inside = true;
+            continue;
+        }
+        if !inside {
+            continue;
+        }
+        let Some((name, mib)) = t.rsplit_once(' ') else { break };
+        let Ok(mib) = mib.parse::<f64>() else { break };
+        out.push((name.trim().to_string(), mib));
+    }
+    out
+}
+
+fn counter(stdout: &str, name: &str) -> Option<usize> {
+    let line = stdout.lines().find(|l| l.starts_with(name))?;
     line.split_whitespace().last()?.parse().ok()
 }
 
-/// Runs every grid of [`GRIDS`] whose model has at most `max_triangles` triangles.
+fn final_cells(stdout: &str) -> Option<usize> {
+    counter(stdout, "final cells")
+}
+
+/// Finite tetrahedra recorded in a run directory's `result.json`.
+fn tetrahedra(run_dir: &Path) -> Option<usize> {
+    let text = std::fs::read_to_string(run_dir.join("result.json")).ok()?;
+    let v: serde_json::Value = serde_json::from_str(&text).ok()?;
+    v.get("subdivision_stats")?
+        .get("tetrahedra")?
+        .as_u64()
+        .map(|n| n as usize)
+}
+
+/// Runs every grid of [`GRIDS`] whose model has `min_triangles..=max_triangles` triangles.
 /// `exe` is the portalfind executable; `work` a scratch directory (models and run
 /// outputs; each size's files are removed after it ran). `log` gets progress lines.
-pub fn run(exe: &Path, max_triangles: usize, work: &Path, log: &mut dyn FnMut(&str)) -> std::io::Result<ScaleReport> {
+pub fn run(
+    exe: &Path,
+    (min_triangles, max_triangles): (usize, usize),
+    work: &Path,
+    log: &mut dyn FnMut(&str),
+) -> std::io::Result<ScaleReport> {
     std::fs::create_dir_all(work)?;
     let mut rows = Vec::new();
     for &n in &GRIDS {
         let (s, _) = room_grid(n, n, TESS);
         let triangles: usize = s.polygons.iter().map(|p| p.len() - 2).sum();
-        if triangles > max_triangles {
+        if triangles > max_triangles || triangles < min_triangles {
             continue;
         }
         let model = work.join(format!("rooms_{n}x{n}_t{TESS}.obj"));
@@ -176,6 +225,7 @@ pub fn run(exe: &Path, max_triangles: usize, work: &Path, log: &mut dyn FnMut(&s
                 run.ok
             )));
         }
+        let tets = tetrahedra(&out_dir);
         let _ = std::fs::remove_file(&model);
         let _ = std::fs::remove_dir_all(&out_dir);
         rows.push(ScaleRow {
@@ -190,6 +240,9 @@ pub fn run(exe: &Path, max_triangles: usize, work: &Path, log: &mut dyn FnMut(&s
             ratio: run.secs / tetra.secs,
             stages: parse_stages(&run.stdout),
             final_cells: final_cells(&run.stdout),
+            memory: parse_memory(&run.stdout),
+            tetrahedra: tets,
+            active_cells: counter(&run.stdout, "active cells"),
         });
     }
     let time_exponent = loglog_slope(&rows.iter().map(|r| (r.triangles as f64, r.run_s)).collect::<Vec<_>>());
@@ -267,7 +320,66 @@ pub fn table(rep: &ScaleReport) -> String {
             s.push('\n');
         }
     }
+    let mem_names = memory_names(&rep.rows);
+    if !mem_names.is_empty() {
+        s.push_str("\nPeak resident memory (MiB) at the end of each stage, as each run printed it:\n\n| after |");
+        for r in &rep.rows {
+            s.push_str(&format!(" {} |", r.triangles));
+        }
+        s.push_str("\n|---|");
+        for _ in &rep.rows {
+            s.push_str("---:|");
+        }
+        s.push('\n');
+        for n in &mem_names {
+            s.push_str(&format!("| {n} |"));
+            for r in &rep.rows {
+                s.push_str(&memory_at(r, n).map_or(" - |".into(), |v| format!(" {v:.0} |")));
+            }
+            s.push('\n');
+        }
+        let per = |r: &ScaleRow, stage: &str, count: Option<usize>| -> String {
+            match (memory_at(r, stage), count) {
+                (Some(m), Some(c)) if c > 0 => format!(" {:.0} |", m * 1048576.0 / c as f64),
+                _ => " - |".into(),
+            }
+        };
+        s.push_str("| tetrahedra |");
+        for r in &rep.rows {
+            s.push_str(&r.tetrahedra.map_or(" - |".into(), |c| format!(" {c} |")));
+        }
+        s.push_str("\n| active cells |");
+        for r in &rep.rows {
+            s.push_str(&r.active_cells.map_or(" - |".into(), |c| format!(" {c} |")));
+        }
+        s.push_str("\n| bytes per tetrahedron (peak after the cell complex) |");
+        for r in &rep.rows {
+            s.push_str(&per(r, "cell complex", r.tetrahedra));
+        }
+        s.push_str("\n| bytes per active cell (peak after the decimation) |");
+        for r in &rep.rows {
+            s.push_str(&per(r, "decimation", r.active_cells));
+        }
+        s.push('\n');
+    }
     s
+}
+
+/// Memory-table stage names in first-seen order over all rows.
+fn memory_names(rows: &[ScaleRow]) -> Vec<String> {
+    let mut names: Vec<String> = Vec::new();
+    for r in rows {
+        for (n, _) in &r.memory {
+            if !names.contains(n) {
+                names.push(n.clone());
+            }
+        }
+    }
+    names
+}
+
+fn memory_at(r: &ScaleRow, name: &str) -> Option<f64> {
+    r.memory.iter().find(|(n, _)| n == name).map(|s| s.1)
 }
 
 fn csv_text(rep: &ScaleReport) -> String {
@@ -437,5 +549,11 @@ mod tests {
             ]
         );
         assert_eq!(final_cells(out), Some(16));
+        let out = "total   2.447\n\npeak memory after                 MiB\nload model        12.5\ncell complex     80.0\n\nheuristic / estimator  aperture / -\nactive cells     45864\n";
+        assert_eq!(
+            parse_memory(out),
+            vec![("load model".to_string(), 12.5), ("cell complex".to_string(), 80.0)]
+        );
+        assert_eq!(counter(out, "active cells"), Some(45864));
     }
 }
