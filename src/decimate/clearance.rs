@@ -143,13 +143,24 @@ fn mid(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 fn best_sample(field: &ClearanceField, poly: &crate::geom::ConvexPolyhedron) -> (f64, [f64; 3]) {
     let samples = cell_samples(poly);
     let (mut bv, mut bp) = (f64::NEG_INFINITY, samples[0]);
+    // The first sample is the centroid; the others' queries are bounded by its clearance
+    // plus the way from it (1-Lipschitz; the bound does not change the answer).
+    let (g, dg) = (samples[0], field.distance(samples[0]));
     for x in samples {
-        let d = field.distance(x);
+        let d = if x == g {
+            dg
+        } else {
+            field.distance_below(x, dg + dist(g, x))
+        };
         if d > bv {
             (bv, bp) = (d, x);
         }
     }
     (bv, bp)
+}
+
+fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
+    norm(&[b[0] - a[0], b[1] - a[1], b[2] - a[2]])
 }
 
 /// A portal's passage value (see [`CellField::passage`]) between the best samples `xa`
@@ -163,9 +174,15 @@ fn portal_passage(
     let mut s = 0.0f64;
     for piece in pieces {
         let m = piece.centroid();
+        let dm = field.distance(m);
         let ys = std::iter::once(m).chain(piece.verts.iter().map(|&v| mid(m, v)));
         for y in ys {
-            let dy = field.distance(y);
+            // Bounded by the piece centroid's clearance plus the way from it.
+            let dy = if y == m {
+                dm
+            } else {
+                field.distance_below(y, dm + dist(m, y))
+            };
             // Upper bound first: a path is never higher than any of its points.
             if dy <= s {
                 continue;

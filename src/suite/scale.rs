@@ -31,6 +31,13 @@ pub struct ScaleRow {
     pub run_s: f64,
     /// Peak resident memory of the `run` child, MiB.
     pub run_peak_mib: f64,
+    /// CPU seconds (user + system, all threads) of the `run` child: on a shared machine
+    /// less disturbed by other jobs than the wall time.
+    #[serde(default)]
+    pub run_cpu_s: f64,
+    /// CPU seconds of the `tetra` child.
+    #[serde(default)]
+    pub tetra_cpu_s: f64,
     /// Wall seconds of the `tetra --no-validate` child (spawn to exit, load included).
     pub tetra_s: f64,
     /// Peak resident memory of the `tetra` child, MiB.
@@ -60,6 +67,8 @@ pub struct ScaleReport {
     pub time_exponent: Option<f64>,
     /// Slope of log(run_peak_mib) against log(triangles).
     pub memory_exponent: Option<f64>,
+    /// Slope of log(run_cpu_s) against log(triangles).
+    pub cpu_exponent: Option<f64>,
 }
 
 /// Least-squares slope of log y against log x (None for fewer than two points).
@@ -80,9 +89,11 @@ pub fn loglog_slope(pts: &[(f64, f64)]) -> Option<f64> {
     (sxx > 0.0).then(|| sxy / sxx)
 }
 
-/// A finished child: wall seconds, peak RSS (MiB), exit success, stdout.
+/// A finished child: wall seconds, CPU seconds (user + system, all threads), peak RSS
+/// (MiB), exit success, stdout.
 struct Child {
     secs: f64,
+    cpu: f64,
     peak_mib: f64,
     ok: bool,
     stdout: String,
@@ -111,9 +122,11 @@ fn run_child(exe: &Path, args: &[&std::ffi::OsStr]) -> std::io::Result<Child> {
         return Err(std::io::Error::last_os_error());
     }
     let ok = libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0;
+    let tv = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
     // Linux reports ru_maxrss in KiB.
     Ok(Child {
         secs,
+        cpu: tv(usage.ru_utime) + tv(usage.ru_stime),
         peak_mib: usage.ru_maxrss as f64 / 1024.0,
         ok,
         stdout,
@@ -209,14 +222,17 @@ pub fn run(
         log(&format!("{n}x{n} rooms, {triangles} triangles: tetra ..."));
         let tetra = run_child(exe, &["tetra".as_ref(), "--no-validate".as_ref(), model.as_os_str()])?;
         log(&format!(
-            "  tetra {:.2} s, {:.0} MiB; run ...",
-            tetra.secs, tetra.peak_mib
+            "  tetra {:.2} s (CPU {:.2} s), {:.0} MiB; run ...",
+            tetra.secs, tetra.cpu, tetra.peak_mib
         ));
         let run = run_child(
             exe,
             &["run".as_ref(), model.as_os_str(), "--out".as_ref(), out_dir.as_os_str()],
         )?;
-        log(&format!("  run {:.2} s, {:.0} MiB", run.secs, run.peak_mib));
+        log(&format!(
+            "  run {:.2} s (CPU {:.2} s), {:.0} MiB",
+            run.secs, run.cpu, run.peak_mib
+        ));
         if !tetra.ok || !run.ok {
             return Err(std::io::Error::other(format!(
                 "a child failed on {} (tetra ok: {}, run ok: {})",
@@ -235,6 +251,8 @@ pub fn run(
             triangles,
             run_s: run.secs,
             run_peak_mib: run.peak_mib,
+            run_cpu_s: run.cpu,
+            tetra_cpu_s: tetra.cpu,
             tetra_s: tetra.secs,
             tetra_peak_mib: tetra.peak_mib,
             ratio: run.secs / tetra.secs,
@@ -246,6 +264,12 @@ pub fn run(
         });
     }
     let time_exponent = loglog_slope(&rows.iter().map(|r| (r.triangles as f64, r.run_s)).collect::<Vec<_>>());
+    let cpu_exponent = loglog_slope(
+        &rows
+            .iter()
+            .map(|r| (r.triangles as f64, r.run_cpu_s))
+            .collect::<Vec<_>>(),
+    );
     let memory_exponent = loglog_slope(
         &rows
             .iter()
@@ -256,6 +280,7 @@ pub fn run(
         rows,
         time_exponent,
         memory_exponent,
+        cpu_exponent,
     })
 }
 
@@ -279,17 +304,19 @@ fn stage_secs(r: &ScaleRow, name: &str) -> Option<f64> {
 /// The Markdown table: one row per size, then the stage seconds per size, then exponents.
 pub fn table(rep: &ScaleReport) -> String {
     let mut s = String::new();
-    s.push_str("| rooms | triangles | run s | run peak MiB | tetra s | tetra peak MiB | run / tetra | final cells |\n");
-    s.push_str("|---|---:|---:|---:|---:|---:|---:|---:|\n");
+    s.push_str("| rooms | triangles | run s | run CPU s | run peak MiB | tetra s | tetra CPU s | tetra peak MiB | run / tetra | final cells |\n");
+    s.push_str("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
     for r in &rep.rows {
         s.push_str(&format!(
-            "| {}×{} | {} | {:.2} | {:.0} | {:.2} | {:.0} | {:.1} | {} |\n",
+            "| {}×{} | {} | {:.2} | {:.2} | {:.0} | {:.2} | {:.2} | {:.0} | {:.1} | {} |\n",
             r.nx,
             r.ny,
             r.triangles,
             r.run_s,
+            r.run_cpu_s,
             r.run_peak_mib,
             r.tetra_s,
+            r.tetra_cpu_s,
             r.tetra_peak_mib,
             r.ratio,
             r.final_cells.map_or("-".into(), |c| c.to_string())
@@ -297,8 +324,9 @@ pub fn table(rep: &ScaleReport) -> String {
     }
     let f = |e: Option<f64>| e.map_or("-".to_string(), |v| format!("{v:.3}"));
     s.push_str(&format!(
-        "\nGrowth exponent (log-log least squares over the sizes above): run time {}, run peak memory {}.\n",
+        "\nGrowth exponent (log-log least squares over the sizes above): run time {}, run CPU time {}, run peak memory {}.\n",
         f(rep.time_exponent),
+        f(rep.cpu_exponent),
         f(rep.memory_exponent)
     ));
     let names = stage_names(&rep.rows);
@@ -384,7 +412,9 @@ fn memory_at(r: &ScaleRow, name: &str) -> Option<f64> {
 
 fn csv_text(rep: &ScaleReport) -> String {
     let names = stage_names(&rep.rows);
-    let mut s = String::from("nx,ny,tess,triangles,run_s,run_peak_mib,tetra_s,tetra_peak_mib,ratio,final_cells");
+    let mut s = String::from(
+        "nx,ny,tess,triangles,run_s,run_peak_mib,tetra_s,tetra_peak_mib,ratio,final_cells,run_cpu_s,tetra_cpu_s",
+    );
     for n in &names {
         s.push_str(&format!(",\"stage: {n}\""));
     }
@@ -403,6 +433,7 @@ fn csv_text(rep: &ScaleReport) -> String {
             r.ratio,
             r.final_cells.map_or(String::new(), |c| c.to_string())
         ));
+        s.push_str(&format!(",{:.4},{:.4}", r.run_cpu_s, r.tetra_cpu_s));
         for n in &names {
             s.push_str(&stage_secs(r, n).map_or(",".into(), |v| format!(",{v:.4}")));
         }
