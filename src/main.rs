@@ -460,6 +460,10 @@ enum BenchCmd {
         /// Skip sizes above this many triangles (974,080 is the largest).
         #[arg(long, default_value_t = 1_000_000)]
         max_triangles: usize,
+        /// Skip sizes below this many triangles (9,856 is the smallest), e.g. 900000 for the
+        /// 1M-triangle run alone.
+        #[arg(long, default_value_t = 0)]
+        min_triangles: usize,
         /// Output directory.
         #[arg(long, default_value = "results/scale")]
         out: PathBuf,
@@ -677,11 +681,17 @@ fn run(cli: Cli) -> Result<()> {
                 no_sampling,
                 out,
             } => bench_visibility(&models, no_sampling, &out),
-            BenchCmd::Scale { max_triangles, out } => {
+            BenchCmd::Scale {
+                max_triangles,
+                min_triangles,
+                out,
+            } => {
                 let exe = std::env::current_exe()?;
                 let work = std::env::temp_dir().join(format!("portalfind-scale-{}", std::process::id()));
-                let rep = portalfind::suite::scale::run(&exe, max_triangles, &work, &mut |l| eprintln!("{l}"))
-                    .context("scale benchmark failed")?;
+                let rep = portalfind::suite::scale::run(&exe, (min_triangles, max_triangles), &work, &mut |l| {
+                    eprintln!("{l}")
+                })
+                .context("scale benchmark failed")?;
                 let _ = std::fs::remove_dir_all(&work);
                 portalfind::suite::scale::write_all(&rep, &out)
                     .with_context(|| format!("cannot write into {}", out.display()))?;
@@ -907,6 +917,7 @@ fn complex(
         stats,
         stages: pre,
         sealed,
+        ..
     } = pipeline::build_cells_unchecked(&m, path, &how, &mut |p: Progress| {
         bar.update(p.stage.name(), p.done, p.total)
     })?;
@@ -1200,6 +1211,7 @@ fn run_decimation(
     let t0 = Instant::now();
     portalfind::output::check_snapshot_counts(snapshot_counts, &stop)?;
     let (m, load_secs) = load_timed(path)?;
+    let load_peak = pipeline::peak_rss_mib();
     let settings = pipeline::Settings {
         cells: how,
         decimation: Settings {
@@ -1216,7 +1228,8 @@ fn run_decimation(
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
     let (mut t2, mut shown) = (None::<Instant>, false);
-    let run = pipeline::run_model(
+    // With the collapses of the run to the end, so the weight curve shows the run past its stop.
+    let run = pipeline::run_model_with_curve(
         &m,
         path,
         &settings,
@@ -1252,19 +1265,10 @@ fn run_decimation(
         mut stages,
         doc,
         sealed,
+        full_steps,
+        mut memory,
         ..
     } = run;
-    // The full decimation (stop `none`), so the weight curve shows the run past its stop.
-    let full = (dec.settings.stop != portalfind::decimate::StopRule::None).then(|| {
-        let t = Instant::now();
-        let settings = Settings {
-            stop: portalfind::decimate::StopRule::None,
-            ..dec.settings
-        };
-        let f = portalfind::decimate::Decimation::run(&cx, &settings);
-        stages.push(("decimation: full run (weight curve)".into(), t.elapsed().as_secs_f64()));
-        f
-    });
     let t3 = Instant::now();
     // Snapshots are rebuilt before anything is written, so a count the run never passed
     // through fails without leaving files behind.
@@ -1282,7 +1286,7 @@ fn run_decimation(
             cx: Some(&cx),
             export,
             notes: portalfind::output::Notes {
-                full_steps: full.as_ref().map(|f| &f.steps[..]),
+                full_steps: full_steps.as_deref(),
                 ..Default::default()
             },
             ..Default::default()
@@ -1290,12 +1294,25 @@ fn run_decimation(
     )?;
     let files = &written.files;
     stages.push(("write outputs".into(), t3.elapsed().as_secs_f64()));
+    if let Some(m) = pipeline::peak_rss_mib() {
+        memory.push(("write outputs".into(), m));
+    }
+    if let Some(m) = load_peak {
+        memory.insert(0, ("load model".into(), m));
+    }
     println!("{:<44}{:>10}", "stage", "seconds");
     for (name, secs) in &stages {
         println!("{name:<44}{secs:>10.3}");
     }
     println!("{:<44}{:>10.3}", "total", t0.elapsed().as_secs_f64());
     println!();
+    if !memory.is_empty() {
+        println!("{:<44}{:>10}", "peak memory after", "MiB");
+        for (name, mib) in &memory {
+            println!("{name:<44}{mib:>10.1}");
+        }
+        println!();
+    }
     let s = &dec.stats;
     let rows: [(&str, String); 9] = [
         (

@@ -323,6 +323,24 @@ pub struct Cells {
     pub stages: Vec<(String, f64)>,
     /// Openings sealed ([`CellSettings::seal_holes`]; empty without it).
     pub sealed: Vec<SealedOpening>,
+    /// Peak resident memory (MiB) at the end of the stages before the complex's own
+    /// ([`peak_rss_mib`]; empty where it cannot be read).
+    pub memory: Vec<(String, f64)>,
+}
+
+/// The process's peak resident memory so far in MiB (Linux `VmHWM`; `None` elsewhere):
+/// [`Run::memory`] samples it at the end of each stage.
+pub fn peak_rss_mib() -> Option<f64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib / 1024.0)
+}
+
+fn sample_peak(memory: &mut Vec<(String, f64)>, stage: &str) {
+    if let Some(m) = peak_rss_mib() {
+        memory.push((stage.to_string(), m));
+    }
 }
 
 /// Loads and cleans a model file; returns it with the seconds it took.
@@ -406,6 +424,8 @@ fn build_cells_unsealed(
                     source,
                 })?;
             let tt = t0.elapsed().as_secs_f64();
+            let mut memory = Vec::new();
+            sample_peak(&mut memory, "delaunay tetrahedralization");
             let cx = CellComplex::build_with_progress(model, &t, &mut |s, done, total| {
                 progress(Progress {
                     stage: Stage::Complex(s),
@@ -422,6 +442,7 @@ fn build_cells_unsealed(
                 }),
                 stages: vec![("delaunay tetrahedralization".into(), tt)],
                 sealed: Vec::new(),
+                memory,
             })
         }
         Subdivision::Bsp => {
@@ -431,6 +452,7 @@ fn build_cells_unsealed(
                 stats: SubdivisionStats::Bsp(stats),
                 stages: Vec::new(),
                 sealed: Vec::new(),
+                memory: Vec::new(),
             })
         }
     }
@@ -444,12 +466,19 @@ pub struct Run {
     pub subdivision_stats: SubdivisionStats,
     /// The decimation.
     pub dec: Decimation,
+    /// The collapses of the run to the end when `dec` stopped early and the run was asked
+    /// for them ([`run_model_with_curve`]); `None` otherwise.
+    pub full_steps: Option<Vec<crate::decimate::Step>>,
     /// Stage timings in order (those passed in first), as in `result.json`.
     pub stages: Vec<(String, f64)>,
     /// The `result.json` document.
     pub doc: ResultDoc,
     /// Openings sealed ([`CellSettings::seal_holes`]; also in `doc.sealed_openings`).
     pub sealed: Vec<SealedOpening>,
+    /// Peak resident memory of the process (MiB, [`peak_rss_mib`]) at the end of each
+    /// stage: the tetrahedralization, the cell complex, the decimation, the result
+    /// document (empty where it cannot be read).
+    pub memory: Vec<(String, f64)>,
 }
 
 /// Cells, decimation and result document for a model already loaded. `model_path` is
@@ -459,32 +488,77 @@ pub fn run_model(
     model: &Model,
     model_path: &Path,
     settings: &Settings,
-    mut stages: Vec<(String, f64)>,
+    stages: Vec<(String, f64)>,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<Run, PipelineError> {
-    let cells = build_cells(model, model_path, &settings.cells, progress)?;
-    stages.extend(cells.stages);
+    run_model_inner(model, model_path, settings, stages, false, progress)
+}
+
+/// [`run_model`], and for a run that stops early also the collapses of the run to the end
+/// ([`Run::full_steps`], for the weight curve; [`Decimation::run_with_curve`]: with the
+/// `clearance` engine and a threshold stop, from the same pass). Its extra time is the
+/// stage `decimation: past the stop (weight curve)` in [`Run::stages`] (not in the
+/// document's stages).
+pub fn run_model_with_curve(
+    model: &Model,
+    model_path: &Path,
+    settings: &Settings,
+    stages: Vec<(String, f64)>,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Run, PipelineError> {
+    run_model_inner(model, model_path, settings, stages, true, progress)
+}
+
+fn run_model_inner(
+    model: &Model,
+    model_path: &Path,
+    settings: &Settings,
+    mut stages: Vec<(String, f64)>,
+    curve: bool,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Run, PipelineError> {
+    let mut cells = build_cells(model, model_path, &settings.cells, progress)?;
+    stages.extend(std::mem::take(&mut cells.stages));
     stages.extend(cells.cx.stats.timings.iter().cloned());
-    let dec = Decimation::run_with_progress(&cells.cx, &settings.decimation, &mut |steps, left| {
+    let mut memory = std::mem::take(&mut cells.memory);
+    sample_peak(&mut memory, "cell complex");
+    let mut report = |steps: usize, left: usize| {
         progress(Progress {
             stage: Stage::Decimate { cells: left },
             done: steps,
             total: steps + left,
         })
-    });
+    };
+    let t0 = Instant::now();
+    let (dec, full_steps) = if curve {
+        Decimation::run_with_curve(&cells.cx, &settings.decimation, &mut report)
+    } else {
+        (
+            Decimation::run_with_progress(&cells.cx, &settings.decimation, &mut report),
+            None,
+        )
+    };
+    let past_stop = t0.elapsed().as_secs_f64() - dec.stats.init_seconds - dec.stats.collapse_seconds;
+    sample_peak(&mut memory, "decimation");
     stages.push(("decimation: initial weights".into(), dec.stats.init_seconds));
     stages.push(("decimation: collapses".into(), dec.stats.collapse_seconds));
     let mut doc = output::result_doc(model, model_path, &cells.cx, &dec, &stages)?;
     doc.settings.subdivision = settings.cells.subdivision.to_string();
     doc.subdivision_stats = cells.stats.to_json();
     doc.sealed_openings = cells.sealed.clone();
+    if full_steps.is_some() {
+        stages.push(("decimation: past the stop (weight curve)".into(), past_stop.max(0.0)));
+    }
+    sample_peak(&mut memory, "result document");
     Ok(Run {
         cx: cells.cx,
         subdivision_stats: cells.stats,
         dec,
+        full_steps,
         stages,
         doc,
         sealed: cells.sealed,
+        memory,
     })
 }
 

@@ -462,3 +462,47 @@ fn threshold_runs_are_prefixes_of_the_run_to_the_end() {
         }
     }
 }
+
+/// A run's record without its timings.
+fn untimed(d: &Decimation) -> (Vec<Step>, StopReason, Partition, DecimationStats) {
+    let mut s = d.stats.clone();
+    (s.init_seconds, s.collapse_seconds) = (0.0, 0.0);
+    (d.steps.clone(), d.stop, d.partition.clone(), s)
+}
+
+#[test]
+fn run_with_curve_equals_the_stopped_run_and_the_run_to_the_end() {
+    // `run` takes the stopped run and the weight curve past the stop from one pass (for the
+    // clearance engine at a threshold stop); both must equal their own runs.
+    let (grid, _) = scenes::room_grid(2, 2, 8);
+    for (i, soup) in [four_rooms(), four_rooms().map(rotate), grid].into_iter().enumerate() {
+        let cx = build(&soup);
+        for (h, e) in all_combinations() {
+            // On the grid (where the aperture gate acts) only the clearance engine, once.
+            if i == 2 && (h.heuristic().engine() != HeuristicEngine::Clearance || e != Estimator::ALL[0]) {
+                continue;
+            }
+            let full = Decimation::run(&cx, &settings(h, e, StopRule::None));
+            for stop in [
+                StopRule::Threshold(1.05),
+                StopRule::Threshold(1.2),
+                StopRule::Threshold(1.8),
+                StopRule::Threshold(3.0),
+                StopRule::Threshold(1e9),
+                StopRule::Cells(5),
+                StopRule::None,
+            ] {
+                let want = Decimation::run(&cx, &settings(h, e, stop));
+                let mut seen = 0;
+                let (got, curve) = Decimation::run_with_curve(&cx, &settings(h, e, stop), &mut |_, _| seen += 1);
+                assert_eq!(untimed(&got), untimed(&want), "{h}/{e} {stop}");
+                assert_eq!(got.settings, want.settings);
+                assert!(seen >= want.steps.len());
+                match curve {
+                    Some(c) => assert_eq!(c, full.steps, "{h}/{e} {stop}: curve"),
+                    None => assert_eq!(stop, StopRule::None),
+                }
+            }
+        }
+    }
+}

@@ -62,8 +62,10 @@
 //! its saddles instead of projected areas.
 
 use std::cmp::Ordering;
-use std::collections::{BTreeMap, BinaryHeap};
+use std::collections::BinaryHeap;
 use std::time::Instant;
+
+use rayon::prelude::*;
 
 use super::MEAN_NORMAL_REL;
 use super::heuristic::{PairContext, sanitize};
@@ -102,24 +104,33 @@ pub struct CellField {
     field: ClearanceField,
     /// The best sample of each cell (where `value` was found).
     best: Vec<[f64; 3]>,
+    /// The clearance at `best` (as the field returned it, before `value`'s clamping).
+    best_clearance: Vec<f64>,
 }
 
 /// The lowest clearance on the segment `p..q` (which lies in free space), by marching:
 /// a step is a quarter of the clearance where it starts (the field is 1-Lipschitz, so the
-/// minimum is missed by at most that), and at least 1/64 of the segment.
-fn segment_min(field: &ClearanceField, p: [f64; 3], q: [f64; 3]) -> f64 {
+/// minimum is missed by at most that), and at least 1/64 of the segment. `dp` is the
+/// clearance at `p` (same bits as `field.distance(p)`). The marching stops at the first
+/// sample at or below `floor`: the result is exact when above `floor`, else some value at
+/// or below `floor` (callers that only take a maximum with `floor` need no more). Each sample's query is bounded by the previous sample's
+/// clearance plus the step (the field is 1-Lipschitz), which prunes the search without
+/// changing its answer ([`ClearanceField::distance_below`]).
+fn segment_min_from(field: &ClearanceField, p: [f64; 3], dp: f64, q: [f64; 3], floor: f64) -> f64 {
     let d = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
     let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
     let mut t = 0.0;
     let mut best = f64::INFINITY;
+    let mut c = dp;
     loop {
-        let x = [p[0] + d[0] * t, p[1] + d[1] * t, p[2] + d[2] * t];
-        let c = field.distance(x);
         best = best.min(c);
-        if t >= 1.0 || len == 0.0 {
+        if t >= 1.0 || len == 0.0 || best <= floor {
             return best;
         }
-        t = (t + (0.25 * c / len).max(1.0 / 64.0)).min(1.0);
+        let t2 = (t + (0.25 * c / len).max(1.0 / 64.0)).min(1.0);
+        let x = [p[0] + d[0] * t2, p[1] + d[1] * t2, p[2] + d[2] * t2];
+        c = field.distance_below(x, c + (t2 - t) * len);
+        t = t2;
     }
 }
 
@@ -127,9 +138,71 @@ fn mid(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     lerp(&a, &b, 0.5)
 }
 
+/// The best sample of a cell: (its clearance, as `ClearanceField::distance` returned it;
+/// the sample). The first of the highest, in [`cell_samples`]' order.
+fn best_sample(field: &ClearanceField, poly: &crate::geom::ConvexPolyhedron) -> (f64, [f64; 3]) {
+    let samples = cell_samples(poly);
+    let (mut bv, mut bp) = (f64::NEG_INFINITY, samples[0]);
+    // The first sample is the centroid; the others' queries are bounded by its clearance
+    // plus the way from it (1-Lipschitz; the bound does not change the answer).
+    let (g, dg) = (samples[0], field.distance(samples[0]));
+    for x in samples {
+        let d = if x == g {
+            dg
+        } else {
+            field.distance_below(x, dg + dist(g, x))
+        };
+        if d > bv {
+            (bv, bp) = (d, x);
+        }
+    }
+    (bv, bp)
+}
+
+fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
+    norm(&[b[0] - a[0], b[1] - a[1], b[2] - a[2]])
+}
+
+/// A portal's passage value (see [`CellField::passage`]) between the best samples `xa`
+/// (clearance `da`) and `xb` of its cells.
+fn portal_passage(
+    field: &ClearanceField,
+    pieces: &[crate::geom::ConvexPolygon],
+    (da, xa): (f64, [f64; 3]),
+    xb: [f64; 3],
+) -> f64 {
+    let mut s = 0.0f64;
+    for piece in pieces {
+        let m = piece.centroid();
+        let dm = field.distance(m);
+        let ys = std::iter::once(m).chain(piece.verts.iter().map(|&v| mid(m, v)));
+        for y in ys {
+            // Bounded by the piece centroid's clearance plus the way from it.
+            let dy = if y == m {
+                dm
+            } else {
+                field.distance_below(y, dm + dist(m, y))
+            };
+            // Upper bound first: a path is never higher than any of its points.
+            if dy <= s {
+                continue;
+            }
+            // Each leg only matters above `s` (the result is `max(s, min(legs))`).
+            let first = segment_min_from(field, xa, da, y, s);
+            if first <= s {
+                continue;
+            }
+            s = s.max(first.min(segment_min_from(field, y, dy, xb, s)));
+        }
+    }
+    if s.is_finite() { s } else { 0.0 }
+}
+
 impl CellField {
     /// The field of the active cells of `cx`: distances to the occluders of its live
-    /// patches (the model's polygons, as placed).
+    /// patches (the model's polygons, as placed). Cells and portals are evaluated in
+    /// parallel (rayon); each value is computed by one thread in a fixed order, so the
+    /// field does not depend on the number of threads.
     pub fn new(cx: &CellComplex) -> Self {
         let field = ClearanceField::from_polygons(
             cx.patches
@@ -137,51 +210,41 @@ impl CellField {
                 .filter(|p| p.alive)
                 .flat_map(|p| p.occluders.iter().map(|o| o.polygon.verts.as_slice())),
         );
-        let mut value = vec![0.0; cx.cells.len()];
-        let mut best = vec![[0.0; 3]; cx.cells.len()];
-        for (id, c) in cx.active_cells() {
-            let i = id.idx();
-            let samples = cell_samples(&c.poly);
-            let (mut bv, mut bp) = (f64::NEG_INFINITY, samples[0]);
-            for x in samples {
-                let d = field.distance(x);
-                if d > bv {
-                    (bv, bp) = (d, x);
+        // (raw clearance of the best sample, the sample) per cell; inactive cells (0, origin).
+        let peaks: Vec<(f64, [f64; 3])> = cx
+            .cells
+            .par_iter()
+            .with_min_len(256)
+            .map(|c| {
+                if c.active() {
+                    best_sample(&field, &c.poly)
+                } else {
+                    (0.0, [0.0; 3])
                 }
-            }
-            value[i] = if bv.is_finite() { bv.max(0.0) } else { 0.0 };
-            best[i] = bp;
-        }
+            })
+            .collect();
         let passage = cx
             .portals
-            .iter()
+            .par_iter()
+            .with_min_len(256)
             .map(|p| {
                 let [a, b] = p.cells;
                 if !(cx.cells[a.idx()].active() && cx.cells[b.idx()].active()) {
                     return 0.0;
                 }
-                let (xa, xb) = (best[a.idx()], best[b.idx()]);
-                let mut s = 0.0f64;
-                for piece in &p.pieces {
-                    let m = piece.centroid();
-                    let mut ys = vec![m];
-                    ys.extend(piece.verts.iter().map(|&v| mid(m, v)));
-                    for y in ys {
-                        // Upper bound first: a path is never higher than any of its points.
-                        if field.distance(y) <= s {
-                            continue;
-                        }
-                        s = s.max(segment_min(&field, xa, y).min(segment_min(&field, y, xb)));
-                    }
-                }
-                if s.is_finite() { s } else { 0.0 }
+                portal_passage(&field, &p.pieces, peaks[a.idx()], peaks[b.idx()].1)
             })
+            .collect();
+        let value = peaks
+            .iter()
+            .map(|&(bv, _)| if bv.is_finite() { bv.max(0.0) } else { 0.0 })
             .collect();
         CellField {
             value,
             passage,
             field,
-            best,
+            best: peaks.iter().map(|&(_, x)| x).collect(),
+            best_clearance: peaks.iter().map(|&(d, _)| d).collect(),
         }
     }
 }
@@ -212,22 +275,30 @@ impl CellField {
             cell_samples(&cx.cells[b.idx()].poly),
         );
         let (ba, bb) = (self.best[a.idx()], self.best[b.idx()]);
-        // Per side, the best first leg to each cell sample.
-        let leg = |best: [f64; 3], xs: &[[f64; 3]]| -> Vec<([f64; 3], f64)> {
-            xs.iter().map(|&x| (x, segment_min(&self.field, best, x))).collect()
+        let (da, db) = (self.best_clearance[a.idx()], self.best_clearance[b.idx()]);
+        let s0 = self.passage[k];
+        // Per side, the best first leg to each cell sample (with the clearance at its end).
+        // A leg at or below `s0` never counts (`s` only rises from `s0`), so its marching
+        // may stop there.
+        let leg = |best: [f64; 3], d: f64, xs: &[[f64; 3]]| -> Vec<([f64; 3], f64, f64)> {
+            xs.iter()
+                .map(|&x| (x, segment_min_from(&self.field, best, d, x, s0), self.field.distance(x)))
+                .collect()
         };
-        let (la, lb) = (leg(ba, &sa), leg(bb, &sb));
-        let side = |legs: &[([f64; 3], f64)], y: [f64; 3], floor: f64| {
+        let (la, lb) = (leg(ba, da, &sa), leg(bb, db, &sb));
+        // Values at or below `floor` only matter as such (callers take `max(floor, ·)`).
+        let side = |legs: &[([f64; 3], f64, f64)], y: [f64; 3], floor: f64| {
             let mut v = f64::NEG_INFINITY;
-            for &(x, l) in legs {
-                if l <= v.max(floor) {
+            for &(x, l, dx) in legs {
+                let f = v.max(floor);
+                if l <= f {
                     continue;
                 }
-                v = v.max(l.min(segment_min(&self.field, x, y)));
+                v = v.max(l.min(segment_min_from(&self.field, x, dx, y, f)));
             }
             v
         };
-        let mut s = self.passage[k];
+        let mut s = s0;
         for piece in &p.pieces {
             let m = piece.centroid();
             let n = piece.verts.len();
@@ -354,11 +425,88 @@ struct Comp {
     peak: f64,
     volume: f64,
     pieces: usize,
-    links: BTreeMap<u32, Link>,
+    links: Links,
     /// The complex cells in the component (kept only when the aperture is needed).
     members: Vec<u32>,
     /// The 3D convex hull of the members' vertices, built when first needed.
     hull: Option<Hull3>,
+}
+
+/// A component's links by neighbour, sorted by the neighbour's id: the subset of
+/// `BTreeMap<u32, Link>`'s interface the merge uses, in a flat vector (a B-tree node holds
+/// eleven links, about 1.2 kB, for components that mostly have three or four neighbours).
+/// Iteration is in key order, as the map's.
+#[derive(Clone, Debug, Default)]
+struct Links(Vec<(u32, Link)>);
+
+/// A slot of [`Links`] ([`Links::entry`]).
+struct LinkSlot<'a> {
+    links: &'a mut Links,
+    at: Result<usize, usize>,
+    key: u32,
+}
+
+impl<'a> LinkSlot<'a> {
+    fn or_insert(self, v: Link) -> &'a mut Link {
+        let i = match self.at {
+            Ok(i) => i,
+            Err(i) => {
+                self.links.0.insert(i, (self.key, v));
+                i
+            }
+        };
+        &mut self.links.0[i].1
+    }
+}
+
+impl Links {
+    fn find(&self, k: u32) -> Result<usize, usize> {
+        self.0.binary_search_by_key(&k, |e| e.0)
+    }
+    fn len(&self) -> usize {
+        self.0.len()
+    }
+    fn get(&self, k: &u32) -> Option<&Link> {
+        self.find(*k).ok().map(|i| &self.0[i].1)
+    }
+    fn insert(&mut self, k: u32, v: Link) -> Option<Link> {
+        match self.find(k) {
+            Ok(i) => Some(std::mem::replace(&mut self.0[i].1, v)),
+            Err(i) => {
+                self.0.insert(i, (k, v));
+                None
+            }
+        }
+    }
+    fn remove(&mut self, k: &u32) -> Option<Link> {
+        self.find(*k).ok().map(|i| self.0.remove(i).1)
+    }
+    fn entry(&mut self, k: u32) -> LinkSlot<'_> {
+        let at = self.find(k);
+        LinkSlot {
+            links: self,
+            at,
+            key: k,
+        }
+    }
+    fn keys(&self) -> impl Iterator<Item = &u32> + '_ {
+        self.0.iter().map(|e| &e.0)
+    }
+}
+
+impl std::ops::Index<&u32> for Links {
+    type Output = Link;
+    fn index(&self, k: &u32) -> &Link {
+        self.get(k).expect("a linked neighbour")
+    }
+}
+
+impl<'a> IntoIterator for &'a Links {
+    type Item = (&'a u32, &'a Link);
+    type IntoIter = std::iter::Map<std::slice::Iter<'a, (u32, Link)>, fn(&'a (u32, Link)) -> (&'a u32, &'a Link)>;
+    fn into_iter(self) -> Self::IntoIter {
+        self.0.iter().map(|(k, l)| (k, l))
+    }
 }
 
 /// The aperture gate of a persistence merge: a pair whose persistence is at least `from`
@@ -417,14 +565,34 @@ pub(crate) fn run(cx: &CellComplex, settings: &Settings, progress: &mut dyn FnMu
         .heuristic()
         .aperture_gate()
         .filter(|_| !matches!(settings.stop, StopRule::Cells(_)));
-    run_inner(cx, settings, gate, None, progress)
+    run_inner(cx, settings, gate, None, None, progress)
+}
+
+/// The run to the end (stop `none`) and, from the same pass, the run stopped at
+/// `threshold:r` (a prefix of it: up to the first pair popped at or above `r`, which
+/// is where the stopped run would have stopped; same steps, stop reason and counters).
+pub(crate) fn run_to_end_and_cut(
+    cx: &CellComplex,
+    settings: &Settings,
+    r: f64,
+    progress: &mut dyn FnMut(usize, usize),
+) -> (Decimation, Decimation) {
+    let full_settings = Settings {
+        stop: StopRule::None,
+        ..*settings
+    };
+    let gate = settings.heuristic.heuristic().aperture_gate();
+    let mut cut = None;
+    let full = run_inner(cx, &full_settings, gate, None, Some((r, &mut cut)), progress);
+    let stopped = full.cut(cx, settings, cut);
+    (stopped, full)
 }
 
 /// The merge with `gate` (overriding the heuristic's), recording every pair it looks at
 /// with the components' projected sections (slow: for diagnostics).
 pub fn trace(cx: &CellComplex, settings: &Settings, gate: Option<ApertureGate>) -> (Decimation, Vec<TraceStep>) {
     let mut t = Vec::new();
-    let d = run_inner(cx, settings, gate, Some(&mut t), &mut |_, _| {});
+    let d = run_inner(cx, settings, gate, Some(&mut t), None, &mut |_, _| {});
     (d, t)
 }
 
@@ -447,6 +615,7 @@ fn run_inner(
     settings: &Settings,
     gate: Option<ApertureGate>,
     mut trace: Option<&mut Vec<TraceStep>>,
+    mut cut: Option<(f64, &mut Option<super::Cut>)>,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Decimation {
     let t0 = Instant::now();
@@ -563,6 +732,19 @@ fn run_inner(
                 threshold: r,
                 next_weight: w,
             };
+        }
+        // Where a `threshold:r` run would have stopped (the run goes on to the end).
+        if let Some((r, c)) = cut.as_mut()
+            && c.is_none()
+            && w >= *r
+        {
+            **c = Some(super::Cut {
+                steps: steps.len(),
+                next_weight: w,
+                weights_computed: stats.weights_computed,
+                reweighs_skipped: stats.reweighs_skipped,
+                collapse_seconds: t1.elapsed().as_secs_f64(),
+            });
         }
         let gated = gate.filter(|g| {
             w >= g.from && g.holds_ball(comps[a].peak, comps[a].volume) && g.holds_ball(comps[b].peak, comps[b].volume)
@@ -735,4 +917,179 @@ fn regions(comps: &[Comp]) -> usize {
         }
     }
     count
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The field as first written (one unbounded query per sample, every segment marched
+    /// to its end, one thread): the reference the fast field must equal bit for bit.
+    fn reference(cx: &CellComplex) -> (Vec<f64>, Vec<f64>, Vec<[f64; 3]>) {
+        fn seg(field: &ClearanceField, p: [f64; 3], q: [f64; 3]) -> f64 {
+            let d = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
+            let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            let mut t = 0.0;
+            let mut best = f64::INFINITY;
+            loop {
+                let x = [p[0] + d[0] * t, p[1] + d[1] * t, p[2] + d[2] * t];
+                let c = field.distance(x);
+                best = best.min(c);
+                if t >= 1.0 || len == 0.0 {
+                    return best;
+                }
+                t = (t + (0.25 * c / len).max(1.0 / 64.0)).min(1.0);
+            }
+        }
+        let field = ClearanceField::from_polygons(
+            cx.patches
+                .iter()
+                .filter(|p| p.alive)
+                .flat_map(|p| p.occluders.iter().map(|o| o.polygon.verts.as_slice())),
+        );
+        let mut value = vec![0.0; cx.cells.len()];
+        let mut best = vec![[0.0; 3]; cx.cells.len()];
+        for (id, c) in cx.active_cells() {
+            let samples = cell_samples(&c.poly);
+            let (mut bv, mut bp) = (f64::NEG_INFINITY, samples[0]);
+            for x in samples {
+                let d = field.distance(x);
+                if d > bv {
+                    (bv, bp) = (d, x);
+                }
+            }
+            value[id.idx()] = if bv.is_finite() { bv.max(0.0) } else { 0.0 };
+            best[id.idx()] = bp;
+        }
+        let passage = cx
+            .portals
+            .iter()
+            .map(|p| {
+                let [a, b] = p.cells;
+                if !(cx.cells[a.idx()].active() && cx.cells[b.idx()].active()) {
+                    return 0.0;
+                }
+                let (xa, xb) = (best[a.idx()], best[b.idx()]);
+                let mut s = 0.0f64;
+                for piece in &p.pieces {
+                    let m = piece.centroid();
+                    let mut ys = vec![m];
+                    ys.extend(piece.verts.iter().map(|&v| mid(m, v)));
+                    for y in ys {
+                        if field.distance(y) <= s {
+                            continue;
+                        }
+                        s = s.max(seg(&field, xa, y).min(seg(&field, y, xb)));
+                    }
+                }
+                if s.is_finite() { s } else { 0.0 }
+            })
+            .collect();
+        (value, passage, best)
+    }
+
+    fn segment_min(field: &ClearanceField, p: [f64; 3], q: [f64; 3]) -> f64 {
+        segment_min_from(field, p, field.distance(p), q, f64::NEG_INFINITY)
+    }
+
+    /// `refined_passage` as first written (every leg marched to its end).
+    fn reference_refined(f: &CellField, cx: &CellComplex, k: usize) -> f64 {
+        let p = &cx.portals[k];
+        let [a, b] = p.cells;
+        let (sa, sb) = (
+            cell_samples(&cx.cells[a.idx()].poly),
+            cell_samples(&cx.cells[b.idx()].poly),
+        );
+        let (ba, bb) = (f.best[a.idx()], f.best[b.idx()]);
+        let leg = |best: [f64; 3], xs: &[[f64; 3]]| -> Vec<([f64; 3], f64)> {
+            xs.iter().map(|&x| (x, segment_min(&f.field, best, x))).collect()
+        };
+        let (la, lb) = (leg(ba, &sa), leg(bb, &sb));
+        let side = |legs: &[([f64; 3], f64)], y: [f64; 3], floor: f64| {
+            let mut v = f64::NEG_INFINITY;
+            for &(x, l) in legs {
+                if l <= v.max(floor) {
+                    continue;
+                }
+                v = v.max(l.min(segment_min(&f.field, x, y)));
+            }
+            v
+        };
+        let mut s = f.passage[k];
+        for piece in &p.pieces {
+            let m = piece.centroid();
+            let n = piece.verts.len();
+            let mut ys = vec![m];
+            for (i, &v) in piece.verts.iter().enumerate() {
+                ys.push(mid(m, v));
+                ys.push(lerp(&v, &m, 0.25));
+                ys.push(lerp(&m, &mid(v, piece.verts[(i + 1) % n]), 0.75));
+            }
+            for y in ys {
+                if f.field.distance(y) <= s {
+                    continue;
+                }
+                let va = side(&la, y, s);
+                if va <= s {
+                    continue;
+                }
+                s = s.max(va.min(side(&lb, y, s)));
+            }
+        }
+        if s.is_finite() { s } else { f.passage[k] }
+    }
+
+    fn bits(v: &[f64]) -> Vec<u64> {
+        v.iter().map(|x| x.to_bits()).collect()
+    }
+
+    fn complexes() -> Vec<(String, CellComplex)> {
+        let mut out = Vec::new();
+        for name in ["four_room_distorted", "caverns", "noisy"] {
+            let tm = crate::generate::thesis::by_name(name).unwrap();
+            let m = crate::model::from_soup(tm.name, tm.soup.vertices.clone(), tm.soup.polygons.clone()).unwrap();
+            out.push((name.to_string(), crate::pipeline::complex_of(&m).unwrap()));
+        }
+        let (soup, _) = crate::generate::scenes::room_grid(2, 2, 8);
+        let m = crate::model::from_soup("rooms 2x2", soup.vertices, soup.polygons).unwrap();
+        out.push(("rooms 2x2".into(), crate::pipeline::complex_of(&m).unwrap()));
+        out
+    }
+
+    #[test]
+    fn fast_field_equals_the_reference_bit_for_bit() {
+        for (name, cx) in complexes() {
+            let f = CellField::new(&cx);
+            let (value, passage, best) = reference(&cx);
+            assert_eq!(bits(&f.value), bits(&value), "{name}: cell values");
+            assert_eq!(bits(&f.passage), bits(&passage), "{name}: passages");
+            assert_eq!(f.best, best, "{name}: best samples");
+            assert!(f.passage.iter().any(|&s| s > 0.0), "{name}: some portal has a pass");
+            // Refined passages too, on every portal between active cells.
+            let mut checked = 0;
+            for (k, p) in cx.portals.iter().enumerate() {
+                let [a, b] = p.cells;
+                if !(cx.cells[a.idx()].active() && cx.cells[b.idx()].active()) || k % 3 != 0 {
+                    continue;
+                }
+                let (got, want) = (f.refined_passage(&cx, k), reference_refined(&f, &cx, k));
+                assert_eq!(got.to_bits(), want.to_bits(), "{name}: refined passage of portal {k}");
+                checked += 1;
+            }
+            assert!(checked > 0, "{name}");
+        }
+    }
+
+    #[test]
+    fn field_does_not_depend_on_the_thread_count() {
+        let (_, cx) = complexes().pop().unwrap();
+        let on = |n: usize| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap();
+            pool.install(|| CellField::new(&cx))
+        };
+        let (one, three) = (on(1), on(3));
+        assert_eq!(bits(&one.value), bits(&three.value));
+        assert_eq!(bits(&one.passage), bits(&three.passage));
+        assert_eq!(one.best, three.best);
+    }
 }

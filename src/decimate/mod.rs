@@ -247,6 +247,22 @@ pub struct DecimationStats {
     pub collapse_seconds: f64,
 }
 
+/// Where a run to the end passed the point at which a `threshold` run stops (the first
+/// pair popped at or above the threshold): the steps and counters up to there.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Cut {
+    /// Collapses before the cut.
+    pub steps: usize,
+    /// The weight of the pair popped there (the stopped run's `next_weight`).
+    pub next_weight: f64,
+    /// Weights evaluated before the cut.
+    pub weights_computed: u64,
+    /// Re-weighs skipped before the cut.
+    pub reweighs_skipped: u64,
+    /// Seconds collapsing before the cut.
+    pub collapse_seconds: f64,
+}
+
 /// A (merged) cell of a partition.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct MergedCell {
@@ -834,6 +850,71 @@ impl Decimation {
             settings: *settings,
             progress,
         })
+    }
+
+    /// The run with `settings` and, when it stops early (a `threshold` or `cells` stop),
+    /// the collapses of the run to the end (stop `none`): what the weight curve shows past
+    /// the stop. With the `clearance` engine and a `threshold` stop both come from one pass
+    /// (the stopped run is a prefix of the run to the end, cut where it would have stopped:
+    /// same steps, stop reason, partition and counters, timings aside); otherwise the run to
+    /// the end is a second run. `progress` sees the first pass.
+    pub fn run_with_curve(
+        cx: &CellComplex,
+        settings: &Settings,
+        progress: &mut dyn FnMut(usize, usize),
+    ) -> (Decimation, Option<Vec<Step>>) {
+        if settings.stop == StopRule::None {
+            return (Self::run_with_progress(cx, settings, progress), None);
+        }
+        if let StopRule::Threshold(r) = settings.stop
+            && settings.heuristic.heuristic().engine() == HeuristicEngine::Clearance
+        {
+            let (stopped, full) = clearance::run_to_end_and_cut(cx, settings, r, progress);
+            return (stopped, Some(full.steps));
+        }
+        let stopped = Self::run_with_progress(cx, settings, progress);
+        let full = Self::run(
+            cx,
+            &Settings {
+                stop: StopRule::None,
+                ..*settings
+            },
+        );
+        (stopped, Some(full.steps))
+    }
+
+    /// The run stopped at `cut` (recorded during this run to the end, for `settings`'
+    /// threshold stop): the first `cut.steps` steps, the replayed partition, the counters
+    /// at the cut. Without a cut (no pair reached the threshold) the run is the whole one.
+    fn cut(&self, cx: &CellComplex, settings: &Settings, cut: Option<Cut>) -> Decimation {
+        let Some(c) = cut else {
+            return Decimation {
+                settings: *settings,
+                ..self.clone()
+            };
+        };
+        let steps = self.steps[..c.steps].to_vec();
+        let partition = Self::replay(cx, &steps).expect("a prefix of a run replays");
+        let threshold = match settings.stop {
+            StopRule::Threshold(t) => t,
+            _ => f64::NAN,
+        };
+        Decimation {
+            settings: *settings,
+            stop: StopReason::Threshold {
+                threshold,
+                next_weight: c.next_weight,
+            },
+            stats: DecimationStats {
+                steps: c.steps,
+                weights_computed: c.weights_computed,
+                reweighs_skipped: c.reweighs_skipped,
+                collapse_seconds: c.collapse_seconds,
+                ..self.stats.clone()
+            },
+            steps,
+            partition,
+        }
     }
 
     /// The partition after the first `steps.len()` collapses of a run, rebuilt by merging

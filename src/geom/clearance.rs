@@ -120,14 +120,45 @@ impl ClearanceField {
 
     /// Distance from `p` to the nearest triangle (`+inf` for an empty model).
     pub fn distance(&self, p: P3) -> f64 {
+        self.search(p, f64::INFINITY).unwrap_or(f64::INFINITY)
+    }
+
+    /// [`ClearanceField::distance`] given an upper bound `ub` of it (e.g. the distance at a
+    /// nearby point plus the way from there: the field is 1-Lipschitz). The bound only
+    /// prunes the search: the answer has the same bits as `distance(p)`; a bound that is
+    /// too low (by rounding) costs a second, unbounded search.
+    pub fn distance_below(&self, p: P3, ub: f64) -> f64 {
+        // A relative rounding margin on the bound (not a geometric tolerance): the search
+        // finds the nearest triangle whenever it is strictly below the bound.
+        const MARGIN: f64 = 1.0 + 1.0 / (1u64 << 40) as f64;
+        if !(ub.is_finite() && ub >= 0.0) {
+            return self.distance(p);
+        }
+        let b = ub * MARGIN;
+        match self.search(p, b * b) {
+            Some(d) => d,
+            None => self.distance(p),
+        }
+    }
+
+    /// Best-first search for the nearest triangle strictly closer than `sqrt(bound2)`:
+    /// its distance, or `None` when there is none (or the model is empty). Nodes whose box
+    /// is at least as far as the best so far (or the bound) are skipped, so the answer is
+    /// the minimum of the point–triangle distances over all triangles, whatever the bound,
+    /// when that minimum is below it.
+    fn search(&self, p: P3, bound2: f64) -> Option<f64> {
         if self.nodes.is_empty() {
-            return f64::INFINITY;
+            return None;
         }
         let mut best = f64::INFINITY;
-        let mut stack: Vec<(f64, u32)> = Vec::with_capacity(64);
-        stack.push((0.0, 0));
-        while let Some((d, ni)) = stack.pop() {
-            if d >= best {
+        // Depth-first with the nearer child popped first: at most one pending sibling per
+        // level, and median splits keep the depth below 64 for any `u32` triangle count.
+        let mut stack = [(0.0f64, 0u32); 128];
+        let mut len = 1usize;
+        while len > 0 {
+            len -= 1;
+            let (d, ni) = stack[len];
+            if d >= best.min(bound2) {
                 continue;
             }
             let n = self.nodes[ni as usize];
@@ -142,14 +173,15 @@ impl ClearanceField {
             let dr = box_dist2(p, self.nodes[r as usize].lo, self.nodes[r as usize].hi);
             // Nearer child last, so it is popped first.
             if dl < dr {
-                stack.push((dr, r));
-                stack.push((dl, l));
+                stack[len] = (dr, r);
+                stack[len + 1] = (dl, l);
             } else {
-                stack.push((dl, l));
-                stack.push((dr, r));
+                stack[len] = (dl, l);
+                stack[len + 1] = (dr, r);
             }
+            len += 2;
         }
-        best.sqrt()
+        (best < bound2).then(|| best.sqrt())
     }
 }
 
@@ -257,5 +289,39 @@ mod tests {
             ClearanceField::from_triangles(Vec::new()).distance([0.0; 3]),
             f64::INFINITY
         );
+    }
+
+    #[test]
+    fn bounded_query_has_the_same_bits() {
+        let mut rng = Rng::new(11);
+        let mut tris = Vec::new();
+        for _ in 0..400 {
+            let a = [rng.f(), rng.f(), rng.f()];
+            let b = add_scaled(a, [rng.f() - 0.5, rng.f() - 0.5, rng.f() - 0.5], 0.1);
+            let c = add_scaled(a, [rng.f() - 0.5, rng.f() - 0.5, rng.f() - 0.5], 0.1);
+            tris.push([a, b, c]);
+        }
+        let f = ClearanceField::from_triangles(tris);
+        let mut prev = [0.5, 0.5, 0.5];
+        let mut dprev = f.distance(prev);
+        for i in 0..500 {
+            let p = add_scaled(prev, [rng.f() - 0.5, rng.f() - 0.5, rng.f() - 0.5], 0.05);
+            let want = f.distance(p);
+            let step = {
+                let d = sub(&p, &prev);
+                dot(&d, &d).sqrt()
+            };
+            // The Lipschitz bound, the exact value, and bounds too low (a second search).
+            for ub in [dprev + step, want, want * 0.5, 0.0, f64::INFINITY, f64::NAN] {
+                assert_eq!(
+                    f.distance_below(p, ub).to_bits(),
+                    want.to_bits(),
+                    "query {i}, bound {ub}"
+                );
+            }
+            (prev, dprev) = (p, want);
+        }
+        let empty = ClearanceField::from_triangles(Vec::new());
+        assert_eq!(empty.distance_below([0.0; 3], 1.0), f64::INFINITY);
     }
 }

@@ -31,6 +31,13 @@ pub struct ScaleRow {
     pub run_s: f64,
     /// Peak resident memory of the `run` child, MiB.
     pub run_peak_mib: f64,
+    /// CPU seconds (user + system, all threads) of the `run` child: on a shared machine
+    /// less disturbed by other jobs than the wall time.
+    #[serde(default)]
+    pub run_cpu_s: f64,
+    /// CPU seconds of the `tetra` child.
+    #[serde(default)]
+    pub tetra_cpu_s: f64,
     /// Wall seconds of the `tetra --no-validate` child (spawn to exit, load included).
     pub tetra_s: f64,
     /// Peak resident memory of the `tetra` child, MiB.
@@ -41,6 +48,15 @@ pub struct ScaleRow {
     pub stages: Vec<(String, f64)>,
     /// The run's "final cells" line.
     pub final_cells: Option<usize>,
+    /// The run's peak resident memory (MiB) at the end of each stage, as it printed it.
+    #[serde(default)]
+    pub memory: Vec<(String, f64)>,
+    /// Finite tetrahedra (the run's `result.json`).
+    #[serde(default)]
+    pub tetrahedra: Option<usize>,
+    /// Active cells at the start of the decimation (the run's "active cells" line).
+    #[serde(default)]
+    pub active_cells: Option<usize>,
 }
 
 /// All sizes and the fitted exponents.
@@ -51,6 +67,8 @@ pub struct ScaleReport {
     pub time_exponent: Option<f64>,
     /// Slope of log(run_peak_mib) against log(triangles).
     pub memory_exponent: Option<f64>,
+    /// Slope of log(run_cpu_s) against log(triangles).
+    pub cpu_exponent: Option<f64>,
 }
 
 /// Least-squares slope of log y against log x (None for fewer than two points).
@@ -71,9 +89,11 @@ pub fn loglog_slope(pts: &[(f64, f64)]) -> Option<f64> {
     (sxx > 0.0).then(|| sxy / sxx)
 }
 
-/// A finished child: wall seconds, peak RSS (MiB), exit success, stdout.
+/// A finished child: wall seconds, CPU seconds (user + system, all threads), peak RSS
+/// (MiB), exit success, stdout.
 struct Child {
     secs: f64,
+    cpu: f64,
     peak_mib: f64,
     ok: bool,
     stdout: String,
@@ -102,9 +122,11 @@ fn run_child(exe: &Path, args: &[&std::ffi::OsStr]) -> std::io::Result<Child> {
         return Err(std::io::Error::last_os_error());
     }
     let ok = libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0;
+    let tv = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
     // Linux reports ru_maxrss in KiB.
     Ok(Child {
         secs,
+        cpu: tv(usage.ru_utime) + tv(usage.ru_stime),
         peak_mib: usage.ru_maxrss as f64 / 1024.0,
         ok,
         stdout,
@@ -135,21 +157,61 @@ pub fn parse_stages(stdout: &str) -> Vec<(String, f64)> {
     out
 }
 
-fn final_cells(stdout: &str) -> Option<usize> {
-    let line = stdout.lines().find(|l| l.starts_with("final cells"))?;
+/// The memory table `run` prints: rows between the "peak memory after MiB" header and the
+/// next blank line.
+pub fn parse_memory(stdout: &str) -> Vec<(String, f64)> {
+    let mut out = Vec::new();
+    let mut inside = false;
+    for line in stdout.lines() {
+        let t = line.trim_end();
+        if t.starts_with("peak memory after") && t.ends_with("MiB") {
+            inside = true;
+            continue;
+        }
+        if !inside {
+            continue;
+        }
+        let Some((name, mib)) = t.rsplit_once(' ') else { break };
+        let Ok(mib) = mib.parse::<f64>() else { break };
+        out.push((name.trim().to_string(), mib));
+    }
+    out
+}
+
+fn counter(stdout: &str, name: &str) -> Option<usize> {
+    let line = stdout.lines().find(|l| l.starts_with(name))?;
     line.split_whitespace().last()?.parse().ok()
 }
 
-/// Runs every grid of [`GRIDS`] whose model has at most `max_triangles` triangles.
+fn final_cells(stdout: &str) -> Option<usize> {
+    counter(stdout, "final cells")
+}
+
+/// Finite tetrahedra recorded in a run directory's `result.json`.
+fn tetrahedra(run_dir: &Path) -> Option<usize> {
+    let text = std::fs::read_to_string(run_dir.join("result.json")).ok()?;
+    let v: serde_json::Value = serde_json::from_str(&text).ok()?;
+    v.get("subdivision_stats")?
+        .get("tetrahedra")?
+        .as_u64()
+        .map(|n| n as usize)
+}
+
+/// Runs every grid of [`GRIDS`] whose model has `min_triangles..=max_triangles` triangles.
 /// `exe` is the portalfind executable; `work` a scratch directory (models and run
 /// outputs; each size's files are removed after it ran). `log` gets progress lines.
-pub fn run(exe: &Path, max_triangles: usize, work: &Path, log: &mut dyn FnMut(&str)) -> std::io::Result<ScaleReport> {
+pub fn run(
+    exe: &Path,
+    (min_triangles, max_triangles): (usize, usize),
+    work: &Path,
+    log: &mut dyn FnMut(&str),
+) -> std::io::Result<ScaleReport> {
     std::fs::create_dir_all(work)?;
     let mut rows = Vec::new();
     for &n in &GRIDS {
         let (s, _) = room_grid(n, n, TESS);
         let triangles: usize = s.polygons.iter().map(|p| p.len() - 2).sum();
-        if triangles > max_triangles {
+        if triangles > max_triangles || triangles < min_triangles {
             continue;
         }
         let model = work.join(format!("rooms_{n}x{n}_t{TESS}.obj"));
@@ -160,14 +222,17 @@ pub fn run(exe: &Path, max_triangles: usize, work: &Path, log: &mut dyn FnMut(&s
         log(&format!("{n}x{n} rooms, {triangles} triangles: tetra ..."));
         let tetra = run_child(exe, &["tetra".as_ref(), "--no-validate".as_ref(), model.as_os_str()])?;
         log(&format!(
-            "  tetra {:.2} s, {:.0} MiB; run ...",
-            tetra.secs, tetra.peak_mib
+            "  tetra {:.2} s (CPU {:.2} s), {:.0} MiB; run ...",
+            tetra.secs, tetra.cpu, tetra.peak_mib
         ));
         let run = run_child(
             exe,
             &["run".as_ref(), model.as_os_str(), "--out".as_ref(), out_dir.as_os_str()],
         )?;
-        log(&format!("  run {:.2} s, {:.0} MiB", run.secs, run.peak_mib));
+        log(&format!(
+            "  run {:.2} s (CPU {:.2} s), {:.0} MiB",
+            run.secs, run.cpu, run.peak_mib
+        ));
         if !tetra.ok || !run.ok {
             return Err(std::io::Error::other(format!(
                 "a child failed on {} (tetra ok: {}, run ok: {})",
@@ -176,6 +241,7 @@ pub fn run(exe: &Path, max_triangles: usize, work: &Path, log: &mut dyn FnMut(&s
                 run.ok
             )));
         }
+        let tets = tetrahedra(&out_dir);
         let _ = std::fs::remove_file(&model);
         let _ = std::fs::remove_dir_all(&out_dir);
         rows.push(ScaleRow {
@@ -185,14 +251,25 @@ pub fn run(exe: &Path, max_triangles: usize, work: &Path, log: &mut dyn FnMut(&s
             triangles,
             run_s: run.secs,
             run_peak_mib: run.peak_mib,
+            run_cpu_s: run.cpu,
+            tetra_cpu_s: tetra.cpu,
             tetra_s: tetra.secs,
             tetra_peak_mib: tetra.peak_mib,
             ratio: run.secs / tetra.secs,
             stages: parse_stages(&run.stdout),
             final_cells: final_cells(&run.stdout),
+            memory: parse_memory(&run.stdout),
+            tetrahedra: tets,
+            active_cells: counter(&run.stdout, "active cells"),
         });
     }
     let time_exponent = loglog_slope(&rows.iter().map(|r| (r.triangles as f64, r.run_s)).collect::<Vec<_>>());
+    let cpu_exponent = loglog_slope(
+        &rows
+            .iter()
+            .map(|r| (r.triangles as f64, r.run_cpu_s))
+            .collect::<Vec<_>>(),
+    );
     let memory_exponent = loglog_slope(
         &rows
             .iter()
@@ -203,6 +280,7 @@ pub fn run(exe: &Path, max_triangles: usize, work: &Path, log: &mut dyn FnMut(&s
         rows,
         time_exponent,
         memory_exponent,
+        cpu_exponent,
     })
 }
 
@@ -226,17 +304,19 @@ fn stage_secs(r: &ScaleRow, name: &str) -> Option<f64> {
 /// The Markdown table: one row per size, then the stage seconds per size, then exponents.
 pub fn table(rep: &ScaleReport) -> String {
     let mut s = String::new();
-    s.push_str("| rooms | triangles | run s | run peak MiB | tetra s | tetra peak MiB | run / tetra | final cells |\n");
-    s.push_str("|---|---:|---:|---:|---:|---:|---:|---:|\n");
+    s.push_str("| rooms | triangles | run s | run CPU s | run peak MiB | tetra s | tetra CPU s | tetra peak MiB | run / tetra | final cells |\n");
+    s.push_str("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
     for r in &rep.rows {
         s.push_str(&format!(
-            "| {}×{} | {} | {:.2} | {:.0} | {:.2} | {:.0} | {:.1} | {} |\n",
+            "| {}×{} | {} | {:.2} | {:.2} | {:.0} | {:.2} | {:.2} | {:.0} | {:.1} | {} |\n",
             r.nx,
             r.ny,
             r.triangles,
             r.run_s,
+            r.run_cpu_s,
             r.run_peak_mib,
             r.tetra_s,
+            r.tetra_cpu_s,
             r.tetra_peak_mib,
             r.ratio,
             r.final_cells.map_or("-".into(), |c| c.to_string())
@@ -244,8 +324,9 @@ pub fn table(rep: &ScaleReport) -> String {
     }
     let f = |e: Option<f64>| e.map_or("-".to_string(), |v| format!("{v:.3}"));
     s.push_str(&format!(
-        "\nGrowth exponent (log-log least squares over the sizes above): run time {}, run peak memory {}.\n",
+        "\nGrowth exponent (log-log least squares over the sizes above): run time {}, run CPU time {}, run peak memory {}.\n",
         f(rep.time_exponent),
+        f(rep.cpu_exponent),
         f(rep.memory_exponent)
     ));
     let names = stage_names(&rep.rows);
@@ -267,12 +348,73 @@ pub fn table(rep: &ScaleReport) -> String {
             s.push('\n');
         }
     }
+    let mem_names = memory_names(&rep.rows);
+    if !mem_names.is_empty() {
+        s.push_str("\nPeak resident memory (MiB) at the end of each stage, as each run printed it:\n\n| after |");
+        for r in &rep.rows {
+            s.push_str(&format!(" {} |", r.triangles));
+        }
+        s.push_str("\n|---|");
+        for _ in &rep.rows {
+            s.push_str("---:|");
+        }
+        s.push('\n');
+        for n in &mem_names {
+            s.push_str(&format!("| {n} |"));
+            for r in &rep.rows {
+                s.push_str(&memory_at(r, n).map_or(" - |".into(), |v| format!(" {v:.0} |")));
+            }
+            s.push('\n');
+        }
+        let per = |r: &ScaleRow, stage: &str, count: Option<usize>| -> String {
+            match (memory_at(r, stage), count) {
+                (Some(m), Some(c)) if c > 0 => format!(" {:.0} |", m * 1048576.0 / c as f64),
+                _ => " - |".into(),
+            }
+        };
+        s.push_str("| tetrahedra |");
+        for r in &rep.rows {
+            s.push_str(&r.tetrahedra.map_or(" - |".into(), |c| format!(" {c} |")));
+        }
+        s.push_str("\n| active cells |");
+        for r in &rep.rows {
+            s.push_str(&r.active_cells.map_or(" - |".into(), |c| format!(" {c} |")));
+        }
+        s.push_str("\n| bytes per tetrahedron (peak after the cell complex) |");
+        for r in &rep.rows {
+            s.push_str(&per(r, "cell complex", r.tetrahedra));
+        }
+        s.push_str("\n| bytes per active cell (peak after the decimation) |");
+        for r in &rep.rows {
+            s.push_str(&per(r, "decimation", r.active_cells));
+        }
+        s.push('\n');
+    }
     s
+}
+
+/// Memory-table stage names in first-seen order over all rows.
+fn memory_names(rows: &[ScaleRow]) -> Vec<String> {
+    let mut names: Vec<String> = Vec::new();
+    for r in rows {
+        for (n, _) in &r.memory {
+            if !names.contains(n) {
+                names.push(n.clone());
+            }
+        }
+    }
+    names
+}
+
+fn memory_at(r: &ScaleRow, name: &str) -> Option<f64> {
+    r.memory.iter().find(|(n, _)| n == name).map(|s| s.1)
 }
 
 fn csv_text(rep: &ScaleReport) -> String {
     let names = stage_names(&rep.rows);
-    let mut s = String::from("nx,ny,tess,triangles,run_s,run_peak_mib,tetra_s,tetra_peak_mib,ratio,final_cells");
+    let mut s = String::from(
+        "nx,ny,tess,triangles,run_s,run_peak_mib,tetra_s,tetra_peak_mib,ratio,final_cells,run_cpu_s,tetra_cpu_s",
+    );
     for n in &names {
         s.push_str(&format!(",\"stage: {n}\""));
     }
@@ -291,6 +433,7 @@ fn csv_text(rep: &ScaleReport) -> String {
             r.ratio,
             r.final_cells.map_or(String::new(), |c| c.to_string())
         ));
+        s.push_str(&format!(",{:.4},{:.4}", r.run_cpu_s, r.tetra_cpu_s));
         for n in &names {
             s.push_str(&stage_secs(r, n).map_or(",".into(), |v| format!(",{v:.4}")));
         }
@@ -437,5 +580,11 @@ mod tests {
             ]
         );
         assert_eq!(final_cells(out), Some(16));
+        let out = "total   2.447\n\npeak memory after                 MiB\nload model        12.5\ncell complex     80.0\n\nheuristic / estimator  aperture / -\nactive cells     45864\n";
+        assert_eq!(
+            parse_memory(out),
+            vec![("load model".to_string(), 12.5), ("cell complex".to_string(), 80.0)]
+        );
+        assert_eq!(counter(out, "active cells"), Some(45864));
     }
 }
