@@ -134,7 +134,8 @@ enum Cmd {
         snapshots: Vec<usize>,
         /// Also export (comma-separated): prt (Quake PRT1 portal file, cells.prt), obj
         /// (cells.obj + cells.mtl, one object per cell and portal, for Blender), gltf
-        /// (cells.glb, named for Godot 3.5's rooms and portals), dot (portals.dot, Graphviz).
+        /// (cells.glb, named for Godot 3.5's rooms and portals), dot (portals.dot, Graphviz),
+        /// html (viewer.html, a 3D viewer that replays the merges; open it in a browser).
         /// Default: none. See the README's "Exports".
         #[arg(long, value_delimiter = ',', value_parser = export_format)]
         export: Vec<String>,
@@ -193,7 +194,7 @@ enum Cmd {
     Export {
         /// Output directory of `portalfind run`.
         dir: PathBuf,
-        /// Formats (comma-separated): prt, obj, gltf, dot.
+        /// Formats (comma-separated): prt, obj, gltf, dot, html.
         #[arg(long, value_delimiter = ',', value_parser = export_format, required = true)]
         to: Vec<String>,
         /// The run's model, if it is no longer at the path recorded in result.json.

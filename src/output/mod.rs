@@ -21,6 +21,7 @@ mod prt;
 mod result_json;
 mod set;
 pub mod svg;
+mod viewer;
 mod weight_csv;
 
 pub use error::OutputError;
@@ -37,6 +38,7 @@ pub use set::{
     check_run, interrupt, read_manifest, remove_run, verify_file, write_run, write_run_with,
 };
 pub use svg::cells_svg;
+pub use viewer::{VIEWER_FILE, viewer_html, viewer_json};
 pub use weight_csv::write_weight_csv;
 
 use crate::complex::{CellComplex, ComplexStats};
