@@ -9,6 +9,7 @@
 //! files of the previous run's set are ever replaced or removed.
 
 mod cells_obj;
+pub mod compare;
 mod dot;
 mod error;
 mod export;
