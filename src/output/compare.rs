@@ -149,10 +149,16 @@ where
         }};
     }
     if lo > 0.0 {
-        let (ylo, yhi) = if hi > lo { (lo / 1.3, hi * 2.0) } else { (lo / 2.0, lo * 2.0) };
+        // Headroom: the data in the lower 70% of the height (on the log scale), the legend above.
+        let (ylo, yhi) = if hi > lo {
+            let ylo = lo / 1.3;
+            (ylo, ylo * (hi * 1.1 / ylo).powf(1.0 / 0.7))
+        } else {
+            (lo / 2.0, lo * 4.0)
+        };
         chart!((ylo..yhi).log_scale(), "weight of the collapse (log scale)", ylo, yhi);
     } else {
-        let (ylo, yhi) = if hi > lo { (lo, hi + 0.3 * (hi - lo)) } else { (lo - 1.0, lo + 1.0) };
+        let (ylo, yhi) = if hi > lo { (lo, lo + (hi - lo) / 0.7) } else { (lo - 1.0, lo + 3.0) };
         chart!(ylo..yhi, "weight of the collapse", ylo, yhi);
     }
     root.present().map_err(err)?;

@@ -392,7 +392,7 @@ pub fn write_outputs_with_snapshots(
 }
 
 /// As [`write_outputs_with_snapshots`], plus the opt-in formats named in `export` (see
-/// [`opt_in_formats`]: `prt`, `obj`, `gltf`, `dot`), which read the cell complex `cx`. An
+/// [`opt_in_formats`]: `prt`, `obj`, `gltf`, `dot`, `html`), which read the cell complex `cx`. An
 /// unknown name is an error before anything is written.
 pub fn write_outputs_exporting(
     dir: &Path,

@@ -348,10 +348,14 @@ pub fn cells_svg_with(model: &Model, doc: &ResultDoc, notes: &Notes<'_>) -> Stri
     );
     for (k, st) in slices.iter().enumerate() {
         let caption = format!(
-            "storey {} of {} (top view): the {} cells whose floor lies in [{}, {}), walls of that height",
+            "storey {} of {} (top view): the {} whose floor lies in [{}, {}), walls of that height",
             k + 1,
             slices.len(),
-            st.cells.len(),
+            if st.cells.len() == 1 {
+                "1 cell".to_string()
+            } else {
+                format!("{} cells", st.cells.len())
+            },
             fmt_height(st.floor),
             fmt_height(st.next)
         );
