@@ -135,7 +135,14 @@ fn default_run_writes_none_of_the_exports_and_unknown_names_fail() {
     let out = dir.join("out");
     let files = output::write_outputs(&out, &m, &r.doc, &r.dec).unwrap();
     let got = names(&files);
-    for f in ["cells.prt", "cells.obj", "cells.mtl", "cells.glb", "portals.dot", "viewer.html"] {
+    for f in [
+        "cells.prt",
+        "cells.obj",
+        "cells.mtl",
+        "cells.glb",
+        "portals.dot",
+        "viewer.html",
+    ] {
         assert!(!got.contains(f) && !out.join(f).exists(), "{f}");
     }
     // The four formats for other tools, then the 3D viewer (tests/viewer.rs).

@@ -124,7 +124,10 @@ fn multi_storey_buildings_get_one_top_view_per_storey() {
                 .iter()
                 .flat_map(|p| p.vertices.iter().map(|v| v[2]))
                 .fold(f64::INFINITY, f64::min);
-            assert!(floor >= x.floor && floor < x.next, "cell {i} floor {floor} in storey {k}");
+            assert!(
+                floor >= x.floor && floor < x.next,
+                "cell {i} floor {floor} in storey {k}"
+            );
         }
         if k > 0 {
             assert_eq!(st[k - 1].next, x.floor);

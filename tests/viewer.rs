@@ -141,7 +141,10 @@ fn viewer_is_self_contained_and_its_data_replays_to_the_run() {
     // Replaying the first `stop` steps (b joins a) gives result.json's cells and volumes.
     let mut parent: Vec<usize> = (0..n).collect();
     for k in 0..stop {
-        let (a, b) = (find(&mut parent, sc[2 * k] as usize), find(&mut parent, sc[2 * k + 1] as usize));
+        let (a, b) = (
+            find(&mut parent, sc[2 * k] as usize),
+            find(&mut parent, sc[2 * k + 1] as usize),
+        );
         parent[a.max(b)] = a.min(b);
     }
     let mut vol = vec![0.0; n];
@@ -181,13 +184,22 @@ fn viewer_is_self_contained_and_its_data_replays_to_the_run() {
     let psides = u32s(&d["portals"]["sides"]);
     let removed = u32s(&d["portals"]["removed"]);
     let area: f64 = f64s(&d["portals"]["area"]).iter().sum();
-    let run_area: f64 = run.cx.portals.iter().flat_map(|p| p.pieces.iter()).map(|q| q.area()).sum();
+    let run_area: f64 = run
+        .cx
+        .portals
+        .iter()
+        .flat_map(|p| p.pieces.iter())
+        .map(|q| q.area())
+        .sum();
     assert!((area - run_area).abs() <= 1e-9 * run_area);
     assert_eq!(removed.len() * 2, psides.len());
     let mut parent: Vec<usize> = (0..n).collect();
     let mut joined = vec![0u32; removed.len()];
     for k in 0..full.steps.len() {
-        let (a, b) = (find(&mut parent, sc[2 * k] as usize), find(&mut parent, sc[2 * k + 1] as usize));
+        let (a, b) = (
+            find(&mut parent, sc[2 * k] as usize),
+            find(&mut parent, sc[2 * k + 1] as usize),
+        );
         parent[a.max(b)] = a.min(b);
         for (j, w) in psides.chunks(2).enumerate() {
             if joined[j] == 0 && find(&mut parent, w[0] as usize) == find(&mut parent, w[1] as usize) {
@@ -196,7 +208,10 @@ fn viewer_is_self_contained_and_its_data_replays_to_the_run() {
         }
     }
     assert_eq!(removed, joined);
-    assert!(removed.iter().any(|&r| r as usize > stop), "some portals outlive the stop");
+    assert!(
+        removed.iter().any(|&r| r as usize > stop),
+        "some portals outlive the stop"
+    );
 
     // Walls: the model's polygons, fanned in the page.
     let wc = b64(d["walls"]["counts"].as_str().unwrap());

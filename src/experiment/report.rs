@@ -604,7 +604,10 @@ fn readme_text(report: &Report, opts: &RunOptions) -> String {
              the rooms there.\n"
         );
         for (name, g) in &groups {
-            let runs: Vec<String> = g.iter().map(|o| format!("[{n}]({n}/)", n = o.eval.experiment)).collect();
+            let runs: Vec<String> = g
+                .iter()
+                .map(|o| format!("[{n}]({n}/)", n = o.eval.experiment))
+                .collect();
             let _ = writeln!(
                 s,
                 "### {name}: {}\n\n![comparison on {name}]({COMPARISONS_DIR}/{name}.png)\n\n[SVG]({COMPARISONS_DIR}/{name}.svg)\n",

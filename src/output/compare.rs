@@ -119,12 +119,15 @@ where
                 chart
                     .draw_series(LineSeries::new(pts, col.stroke_width(2)))
                     .map_err(err)?
-                    .label(format!("{} ({} → {} cells)", s.label, s.initial_cells, s.steps.last().map_or(s.initial_cells, |l| l.1)))
+                    .label(format!(
+                        "{} ({} → {} cells)",
+                        s.label,
+                        s.initial_cells,
+                        s.steps.last().map_or(s.initial_cells, |l| l.1)
+                    ))
                     .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2)));
                 if let Some(p) = point(s, s.steps.len()) {
-                    chart
-                        .draw_series([Circle::new(p, 6, col.filled())])
-                        .map_err(err)?;
+                    chart.draw_series([Circle::new(p, 6, col.filled())]).map_err(err)?;
                 }
                 if let Some(p) = s.first_join.and_then(|j| point(s, j)) {
                     chart
@@ -158,7 +161,11 @@ where
         };
         chart!((ylo..yhi).log_scale(), "weight of the collapse (log scale)", ylo, yhi);
     } else {
-        let (ylo, yhi) = if hi > lo { (lo, lo + (hi - lo) / 0.7) } else { (lo - 1.0, lo + 3.0) };
+        let (ylo, yhi) = if hi > lo {
+            (lo, lo + (hi - lo) / 0.7)
+        } else {
+            (lo - 1.0, lo + 3.0)
+        };
         chart!(ylo..yhi, "weight of the collapse", ylo, yhi);
     }
     root.present().map_err(err)?;
@@ -189,7 +196,9 @@ mod tests {
         Series {
             label: label.into(),
             initial_cells: n,
-            steps: (1..n - 3).map(|k| (scale * (1.0 + k as f64 / n as f64), n - k)).collect(),
+            steps: (1..n - 3)
+                .map(|k| (scale * (1.0 + k as f64 / n as f64), n - k))
+                .collect(),
             first_join: Some(n - 6),
         }
     }

@@ -496,6 +496,9 @@ pub fn cells_svg_with(model: &Model, doc: &ResultDoc, notes: &Notes<'_>) -> Stri
 }
 
 /// Draws one panel: cells, walls, portals, truth, labels.
+// The run, its notes and the panel's projection, filter and caption: a struct would only
+// regroup them for this one private function.
+#[allow(clippy::too_many_arguments)]
 fn draw_view(
     out: &mut String,
     model: &Model,
@@ -520,14 +523,12 @@ fn draw_view(
         })
     };
     let z_range = |pts: &mut dyn Iterator<Item = &P3>| {
-        pts.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p[2]), b.max(p[2])))
+        pts.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+            (a.min(p[2]), b.max(p[2]))
+        })
     };
     let shown_cell = |i: usize| only.is_none_or(|st| st.cells.binary_search(&i).is_ok());
-    let shown_id = |id: u32| {
-        doc.cells
-            .binary_search_by_key(&id, |c| c.id)
-            .is_ok_and(|i| shown_cell(i))
-    };
+    let shown_id = |id: u32| doc.cells.binary_search_by_key(&id, |c| c.id).is_ok_and(&shown_cell);
     let _ = writeln!(
         out,
         r##"<text x="{:.1}" y="{:.1}" font-size="12" fill="#555">{}</text>"##,

@@ -415,7 +415,13 @@ mod tests {
         let g = three_global(THREE_MODULE).expect("one export statement");
         assert!(!g.contains("export{"));
         assert!(g.trim_end().ends_with("};"));
-        for name in ["WebGLRenderer:", "PerspectiveCamera:", "BufferGeometry:", "Raycaster:", "Scene:"] {
+        for name in [
+            "WebGLRenderer:",
+            "PerspectiveCamera:",
+            "BufferGeometry:",
+            "Raycaster:",
+            "Scene:",
+        ] {
             assert!(g.contains(name), "{name}");
         }
         let lower = THREE_MODULE.to_ascii_lowercase();
