@@ -138,8 +138,8 @@ fn multi_storey_buildings_get_one_top_view_per_storey() {
         assert!(text.contains(&format!("storey {k} of {}", st.len())), "panel {k}");
     }
     assert!(text.contains("side view"));
-    // Each cell is drawn in the top view and once more in its storey's view.
-    assert_eq!(text.matches("<title>cell ").count(), 2 * doc.cells.len());
+    // Each cell is drawn in the top view, in its storey's view and in the side view.
+    assert_eq!(text.matches("<title>cell ").count(), 3 * doc.cells.len());
 
     let tm = portalfind::generate::thesis::by_name("four_room_optimized").unwrap();
     let m = portalfind::model::from_soup("four", tm.soup.vertices.clone(), tm.soup.polygons.clone()).unwrap();
