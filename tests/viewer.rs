@@ -150,9 +150,9 @@ fn viewer_is_self_contained_and_its_data_replays_to_the_run() {
         parent[a.max(b)] = a.min(b);
     }
     let mut vol = vec![0.0; n];
-    for i in 0..n {
+    for (i, v) in volumes.iter().enumerate() {
         let r = find(&mut parent, i);
-        vol[r] += volumes[i];
+        vol[r] += v;
     }
     let roots: Vec<usize> = (0..n).filter(|&i| find(&mut parent, i) == i).collect();
     assert_eq!(roots.len(), run.doc.cells.len());
