@@ -10,6 +10,8 @@
 #         conventions by `cargo test --test exports`
 #   Blender (optional): if `blender` is on PATH, imports cells.obj and cells.glb headless and
 #         counts the Cell_/Portal_ and Room_ objects
+#   HTML  scripts/check-viewer.sh: viewer.html in headless Chromium (slider, click,
+#         screenshots, no console errors); SKIP_VIEWER=1 skips it
 #
 # Usage: scripts/check-exports.sh [MODEL [RUN OPTIONS...]]
 #   default: the thesis's four_room_optimized with --heuristic refined --estimator hull
@@ -142,6 +144,15 @@ print('BLENDER', sum(n.startswith('Cell_') for n in names), 'Cell_,', sum(n.ends
   done
 else
   echo "SKIP  blender not installed (optional: apt-get install blender)"
+fi
+
+# --- HTML viewer: headless Chromium (scripts/check-viewer.sh) ------------------------------
+if [ "${SKIP_VIEWER:-0}" = 1 ]; then
+  echo "SKIP  viewer.html (SKIP_VIEWER=1)"
+elif PORTALFIND="$bin" scripts/check-viewer.sh "$model" "${opts[@]}" >"$work/viewer.txt" 2>&1; then
+  pass "viewer.html in headless Chromium: $(grep -c '^PASS' "$work/viewer.txt") checks passed (log: $work/viewer.txt)"
+else
+  bad "viewer.html in headless Chromium: $(grep '^FAIL' "$work/viewer.txt" | head -3 | tr '\n' ' ') (log: $work/viewer.txt)"
 fi
 
 exit $fail

@@ -135,10 +135,18 @@ fn default_run_writes_none_of_the_exports_and_unknown_names_fail() {
     let out = dir.join("out");
     let files = output::write_outputs(&out, &m, &r.doc, &r.dec).unwrap();
     let got = names(&files);
-    for f in ["cells.prt", "cells.obj", "cells.mtl", "cells.glb", "portals.dot"] {
+    for f in [
+        "cells.prt",
+        "cells.obj",
+        "cells.mtl",
+        "cells.glb",
+        "portals.dot",
+        "viewer.html",
+    ] {
         assert!(!got.contains(f) && !out.join(f).exists(), "{f}");
     }
-    assert_eq!(output::opt_in_formats(), ALL);
+    // The four formats for other tools, then the 3D viewer (tests/viewer.rs).
+    assert_eq!(output::opt_in_formats(), [&ALL[..], &["html"]].concat());
     let e =
         output::write_outputs_exporting(&out, &m, &r.doc, &r.dec, &[], Some(&r.cx), &["ply".to_string()]).unwrap_err();
     assert!(format!("{e} {}", std::error::Error::source(&e).unwrap()).contains("prt, obj, gltf, dot"));

@@ -92,3 +92,58 @@ fn multi_storey_models_get_a_side_view() {
     let m = portalfind::model::from_soup("four", tm.soup.vertices.clone(), polys).unwrap();
     assert!(!svg::multi_storey(&m));
 }
+
+/// Storeys come from the cells' floor heights: a generated multi-storey building (the
+/// suite's `multistorey` family) splits into at least two storeys, every cell in exactly
+/// one, each storey's cells with floors in its band; `cells.svg` draws one top view per
+/// storey besides the whole top view and the side view. The single-floor four rooms get
+/// one storey and no slices.
+#[test]
+fn multi_storey_buildings_get_one_top_view_per_storey() {
+    let case = portalfind::suite::suite()
+        .into_iter()
+        .find(|c| c.name.starts_with("multistorey"))
+        .expect("a multistorey suite case");
+    let model = case.load().unwrap();
+    assert!(svg::multi_storey(&model), "{}", case.name);
+    let mut s = Settings::default();
+    s.decimation.heuristic = HeuristicKind::Aperture;
+    s.decimation.stop = HeuristicKind::Aperture.default_stop();
+    let run = pipeline::run_model(&model, std::path::Path::new(&case.name), &s, Vec::new(), &mut |_| {}).unwrap();
+    let doc = &run.doc;
+    let st = svg::storeys(doc);
+    assert!(st.len() >= 2, "{}: {} storeys", case.name, st.len());
+    let mut all: Vec<usize> = st.iter().flat_map(|x| x.cells.clone()).collect();
+    all.sort_unstable();
+    assert_eq!(all, (0..doc.cells.len()).collect::<Vec<_>>());
+    for (k, x) in st.iter().enumerate() {
+        assert!(x.floor < x.next, "storey {k}: {} .. {}", x.floor, x.next);
+        for &i in &x.cells {
+            let floor = doc.cells[i]
+                .pieces
+                .iter()
+                .flat_map(|p| p.vertices.iter().map(|v| v[2]))
+                .fold(f64::INFINITY, f64::min);
+            assert!(
+                floor >= x.floor && floor < x.next,
+                "cell {i} floor {floor} in storey {k}"
+            );
+        }
+        if k > 0 {
+            assert_eq!(st[k - 1].next, x.floor);
+        }
+    }
+    let text = svg::cells_svg(&model, doc);
+    for k in 1..=st.len() {
+        assert!(text.contains(&format!("storey {k} of {}", st.len())), "panel {k}");
+    }
+    assert!(text.contains("side view"));
+    // Each cell is drawn in the top view, in its storey's view and in the side view.
+    assert_eq!(text.matches("<title>cell ").count(), 3 * doc.cells.len());
+
+    let tm = portalfind::generate::thesis::by_name("four_room_optimized").unwrap();
+    let m = portalfind::model::from_soup("four", tm.soup.vertices.clone(), tm.soup.polygons.clone()).unwrap();
+    let run = pipeline::run_model(&m, std::path::Path::new("four"), &s, Vec::new(), &mut |_| {}).unwrap();
+    assert_eq!(svg::storeys(&run.doc).len(), 1);
+    assert!(!svg::cells_svg(&m, &run.doc).contains("storey 1 of"));
+}

@@ -400,6 +400,29 @@ pub fn write_summary(
     } else if vis_path.is_file() {
         let _ = std::fs::remove_file(&vis_path);
     }
+    // Comparison plots (one model, several heuristics), linked from the README.
+    for (name, group) in comparison_groups(report) {
+        let dir = out.join(COMPARISONS_DIR);
+        std::fs::create_dir_all(&dir).map_err(|source| RunError::CreateDir {
+            dir: dir.clone(),
+            source,
+        })?;
+        let c = comparison(&group);
+        let png = dir.join(format!("{name}.png"));
+        let svg = dir.join(format!("{name}.svg"));
+        let plot_err = |path: &Path, e: crate::output::OutputError| RunError::WriteFile {
+            path: path.to_path_buf(),
+            source: std::io::Error::other(e.to_string()),
+        };
+        crate::output::write_atomic(&png, |tmp| crate::output::compare::comparison_png(tmp, &c))
+            .map_err(|e| plot_err(&png, e))?;
+        let text = crate::output::compare::comparison_svg(&c).map_err(|e| plot_err(&svg, e))?;
+        write_atomic(&svg, text.as_bytes()).map_err(|source| RunError::WriteFile {
+            path: svg.clone(),
+            source,
+        })?;
+        files.extend([png, svg]);
+    }
     // README.md
     let readme = readme_text(report, opts);
     let md_path = out.join("README.md");
@@ -493,6 +516,81 @@ fn visibility_section(report: &Report) -> String {
     }
     s.push('\n');
     s
+}
+
+/// Where the comparison plots go, inside the results directory.
+pub const COMPARISONS_DIR: &str = "comparisons";
+
+/// Experiments on the same model (same source and transforms) with different settings,
+/// in run order, named by their first experiment; only groups of two or more.
+pub fn comparison_groups(report: &Report) -> Vec<(String, Vec<&super::Outcome>)> {
+    let mut groups: Vec<(String, Vec<&super::Outcome>)> = Vec::new();
+    let key = |o: &super::Outcome| (o.eval.model.source.clone(), transforms_text(&o.eval));
+    for o in &report.outcomes {
+        match groups.iter_mut().find(|(_, g)| key(g[0]) == key(o)) {
+            Some((_, g)) => g.push(o),
+            None => groups.push((o.eval.experiment.clone(), vec![o])),
+        }
+    }
+    groups.retain(|(_, g)| g.len() >= 2);
+    groups
+}
+
+/// What one run of a comparison shows: `heuristic / estimator` (and the subdivision when
+/// it is not Delaunay's).
+fn series_label(e: &Evaluation) -> String {
+    let mut l = format!("{}: {} / {}", e.experiment, e.settings.heuristic, e.settings.estimator);
+    if e.settings.subdivision != "delaunay" {
+        let _ = write!(l, ", {} cells", e.settings.subdivision);
+    }
+    l
+}
+
+/// The comparison picture of a group: each run's weight curve up to its stop, read back
+/// from its `weight_curve.csv` (a run whose file cannot be read is drawn without steps).
+fn comparison(group: &[&super::Outcome]) -> crate::output::compare::Comparison {
+    use crate::output::compare::{Comparison, Series};
+    let series = group
+        .iter()
+        .map(|o| {
+            let e = &o.eval;
+            let steps = read_curve(&o.dir.join("weight_curve.csv"));
+            let first_join = e
+                .truth
+                .as_ref()
+                .and_then(|t| t.weight_jump.as_ref())
+                .map(|j| j.step)
+                .filter(|&j| j <= steps.len());
+            Series {
+                label: series_label(e),
+                initial_cells: e.complex.active_cells,
+                steps,
+                first_join,
+            }
+        })
+        .collect();
+    Comparison {
+        title: format!(
+            "{}: the weight curves of {} runs compared",
+            group[0].eval.model.source,
+            group.len()
+        ),
+        series,
+        rooms: group[0].eval.truth.as_ref().map(|t| t.rooms),
+    }
+}
+
+/// (weight, cells remaining) per row of a `weight_curve.csv`; empty if unreadable.
+fn read_curve(path: &Path) -> Vec<(f64, usize)> {
+    let Ok(mut r) = csv::Reader::from_path(path) else {
+        return Vec::new();
+    };
+    r.records()
+        .map_while(|rec| {
+            let rec = rec.ok()?;
+            Some((rec.get(1)?.parse().ok()?, rec.get(2)?.parse().ok()?))
+        })
+        .collect()
 }
 
 fn rel_link(out: &Path, file: &str) -> String {
@@ -591,6 +689,29 @@ fn readme_text(report: &Report, opts: &RunOptions) -> String {
     }
     s.push('\n');
     s.push_str(&visibility_section(report));
+    let groups = comparison_groups(report);
+    if !groups.is_empty() {
+        let _ = writeln!(s, "## Comparisons\n");
+        let _ = writeln!(
+            s,
+            "The runs on one model overlaid: the weight of each collapse over the cells \
+             remaining (log scales; each run goes from right to left), a dot at each run's \
+             stop, a cross at its first room join when that came before the stop, a dashed \
+             line at the true room count. A run whose curve jumps at the room count separates \
+             the rooms there.\n"
+        );
+        for (name, g) in &groups {
+            let runs: Vec<String> = g
+                .iter()
+                .map(|o| format!("[{n}]({n}/)", n = o.eval.experiment))
+                .collect();
+            let _ = writeln!(
+                s,
+                "### {name}: {}\n\n![comparison on {name}]({COMPARISONS_DIR}/{name}.png)\n\n[SVG]({COMPARISONS_DIR}/{name}.svg)\n",
+                runs.join(", ")
+            );
+        }
+    }
     for o in &report.outcomes {
         let e = &o.eval;
         let _ = writeln!(s, "## [{n}]({n}/)\n", n = e.experiment);

@@ -85,6 +85,7 @@ pub fn exporters() -> Vec<Box<dyn Exporter>> {
         Box::new(super::cells_obj::CellsObj),
         Box::new(super::gltf::Glb),
         Box::new(super::dot::Dot),
+        Box::new(super::viewer::Viewer),
     ]
 }
 

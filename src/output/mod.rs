@@ -9,6 +9,7 @@
 //! files of the previous run's set are ever replaced or removed.
 
 mod cells_obj;
+pub mod compare;
 mod dot;
 mod error;
 mod export;
@@ -21,6 +22,7 @@ mod prt;
 mod result_json;
 mod set;
 pub mod svg;
+mod viewer;
 mod weight_csv;
 
 pub use error::OutputError;
@@ -37,6 +39,7 @@ pub use set::{
     check_run, interrupt, read_manifest, remove_run, verify_file, write_run, write_run_with,
 };
 pub use svg::cells_svg;
+pub use viewer::{VIEWER_FILE, viewer_html, viewer_json};
 pub use weight_csv::write_weight_csv;
 
 use crate::complex::{CellComplex, ComplexStats};
@@ -389,7 +392,7 @@ pub fn write_outputs_with_snapshots(
 }
 
 /// As [`write_outputs_with_snapshots`], plus the opt-in formats named in `export` (see
-/// [`opt_in_formats`]: `prt`, `obj`, `gltf`, `dot`), which read the cell complex `cx`. An
+/// [`opt_in_formats`]: `prt`, `obj`, `gltf`, `dot`, `html`), which read the cell complex `cx`. An
 /// unknown name is an error before anything is written.
 pub fn write_outputs_exporting(
     dir: &Path,

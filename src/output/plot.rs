@@ -52,7 +52,7 @@ pub struct Curve<'a> {
 }
 
 /// Three significant digits, without a trailing ".0" on integers.
-fn sig(v: f64) -> String {
+pub(crate) fn sig(v: f64) -> String {
     if v == 0.0 || !v.is_finite() {
         return format!("{v}");
     }

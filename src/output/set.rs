@@ -75,7 +75,7 @@ pub struct SetOptions<'a> {
     pub later: &'a [&'a str],
     /// The cell complex, for the opt-in formats that read cell geometry.
     pub cx: Option<&'a crate::complex::CellComplex>,
-    /// Opt-in formats to write as well (`prt`, `obj`, `gltf`, `dot`; see
+    /// Opt-in formats to write as well (`prt`, `obj`, `gltf`, `dot`, `html`; see
     /// [`super::opt_in_formats`]); an unknown name is an error before anything is written.
     pub export: &'a [String],
     /// Annotations for the pictures (full run, first room join, ground truth).

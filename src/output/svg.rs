@@ -79,6 +79,16 @@ fn nice_length(x: f64) -> f64 {
         .unwrap_or(k)
 }
 
+/// A height for captions: four significant digits.
+fn fmt_height(z: f64) -> String {
+    let a = z.abs();
+    if a == 0.0 || !z.is_finite() {
+        return format!("{z}");
+    }
+    let decimals = (3 - a.log10().floor() as i32).clamp(0, 6) as usize;
+    format!("{z:.decimals$}")
+}
+
 fn fmt_len(x: f64) -> String {
     if x >= 1.0 { format!("{x:.0}") } else { format!("{x}") }
 }
@@ -120,6 +130,71 @@ pub fn multi_storey(model: &Model) -> bool {
     quantile(0.9) - quantile(0.1) > 0.25 * zext
 }
 
+/// A storey gap: cells' floor heights further apart than this share of their height range
+/// start a new storey (a run of empty bins of a histogram with bins this wide). Relative,
+/// so it does not depend on the model's units.
+pub const STOREY_GAP: f64 = 0.125;
+/// Storey panels drawn at most (the smallest gaps are closed first).
+pub const MAX_STOREYS: usize = 6;
+
+/// One storey of [`storeys`]: the cells whose floor (lowest point) lies in `[floor, next)`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Storey {
+    /// The lowest floor height of its cells.
+    pub floor: f64,
+    /// The next storey's floor (the top of the cells' height range for the highest).
+    pub next: f64,
+    /// Its cells, as indices into `doc.cells`.
+    pub cells: Vec<usize>,
+}
+
+/// The storeys of a run's cells, from their floor heights (each cell's lowest vertex): sorted
+/// by height, a gap wider than [`STOREY_GAP`] of the cells' height range (lowest floor to
+/// highest point) separates two storeys; at most [`MAX_STOREYS`] (the widest gaps win).
+/// One storey when there is no such gap.
+pub fn storeys(doc: &ResultDoc) -> Vec<Storey> {
+    let mut floors: Vec<(f64, usize)> = Vec::new();
+    let mut top = f64::NEG_INFINITY;
+    for (i, c) in doc.cells.iter().enumerate() {
+        let zs = c.pieces.iter().flat_map(|p| p.vertices.iter().map(|v| v[2]));
+        let (lo, hi) = zs.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), z| (a.min(z), b.max(z)));
+        if lo.is_finite() && hi.is_finite() {
+            floors.push((lo, i));
+            top = top.max(hi);
+        }
+    }
+    floors.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let Some(&(lowest, _)) = floors.first() else {
+        return Vec::new();
+    };
+    let range = top - lowest;
+    // Gaps (index of the first cell above, width), widest first.
+    let mut gaps: Vec<(usize, f64)> = floors
+        .windows(2)
+        .enumerate()
+        .map(|(k, w)| (k + 1, w[1].0 - w[0].0))
+        .filter(|&(_, g)| range > 0.0 && g > STOREY_GAP * range)
+        .collect();
+    gaps.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+    gaps.truncate(MAX_STOREYS - 1);
+    let mut starts: Vec<usize> = std::iter::once(0).chain(gaps.iter().map(|g| g.0)).collect();
+    starts.sort_unstable();
+    starts
+        .iter()
+        .enumerate()
+        .map(|(k, &s)| {
+            let end = starts.get(k + 1).copied().unwrap_or(floors.len());
+            let mut cells: Vec<usize> = floors[s..end].iter().map(|f| f.1).collect();
+            cells.sort_unstable();
+            Storey {
+                floor: floors[s].0,
+                next: floors.get(end).map_or(top, |f| f.0),
+                cells,
+            }
+        })
+        .collect()
+}
+
 /// One projection of the model into a panel: `axis` 1 is the top view (x, y), 2 the side
 /// view (x, z); `origin` is the panel's top-left corner on the page.
 struct View {
@@ -158,6 +233,13 @@ pub fn cells_svg_with(model: &Model, doc: &ResultDoc, notes: &Notes<'_>) -> Stri
     let map_w = WIDTH - 3.0 * MARGIN - LEGEND;
     let s = map_w / ext(0);
     let side = multi_storey(model);
+    // Per-storey slices: only for multi-storey models whose cells' floors have gaps.
+    let slices: Vec<Storey> = if side {
+        storeys(doc).into_iter().filter(|s| !s.cells.is_empty()).collect()
+    } else {
+        Vec::new()
+    };
+    let slices = if slices.len() >= 2 { slices } else { Vec::new() };
     let top = View {
         lo: [lo[0], lo[1]],
         hi_v: hi[1],
@@ -166,16 +248,21 @@ pub fn cells_svg_with(model: &Model, doc: &ResultDoc, notes: &Notes<'_>) -> Stri
         axis: 1,
     };
     let top_h = ext(1) * s;
+    let slice_view = |k: usize| View {
+        origin: (MARGIN, HEADER + (k + 1) as f64 * (top_h + 50.0)),
+        ..top
+    };
+    let slices_h = slices.len() as f64 * (top_h + 50.0);
     let side_view = View {
         lo: [lo[0], lo[2]],
         hi_v: hi[2],
         s,
-        origin: (MARGIN, HEADER + top_h + 50.0),
+        origin: (MARGIN, HEADER + top_h + slices_h + 50.0),
         axis: 2,
     };
     let side_h = if side { ext(2) * s + 50.0 } else { 0.0 };
     let legend_rows = doc.cells.len().min(LEGEND_ROWS) + 10;
-    let height = (HEADER + top_h + side_h + 70.0).max(HEADER + legend_rows as f64 * 18.0 + 40.0);
+    let height = (HEADER + top_h + slices_h + side_h + 70.0).max(HEADER + legend_rows as f64 * 18.0 + 40.0);
 
     // Which rooms' samples each cell holds.
     let mut holds: Vec<Vec<usize>> = vec![Vec::new(); doc.cells.len()];
@@ -256,8 +343,33 @@ pub fn cells_svg_with(model: &Model, doc: &ResultDoc, notes: &Notes<'_>) -> Stri
         notes,
         &top,
         &by_volume,
+        None,
         "top view (x right, y up)",
     );
+    for (k, st) in slices.iter().enumerate() {
+        let caption = format!(
+            "storey {} of {} (top view): the {} whose floor lies in [{}, {}), walls of that height",
+            k + 1,
+            slices.len(),
+            if st.cells.len() == 1 {
+                "1 cell".to_string()
+            } else {
+                format!("{} cells", st.cells.len())
+            },
+            fmt_height(st.floor),
+            fmt_height(st.next)
+        );
+        draw_view(
+            &mut out,
+            model,
+            doc,
+            notes,
+            &slice_view(k),
+            &by_volume,
+            Some(st),
+            &caption,
+        );
+    }
     if side {
         draw_view(
             &mut out,
@@ -266,6 +378,7 @@ pub fn cells_svg_with(model: &Model, doc: &ResultDoc, notes: &Notes<'_>) -> Stri
             notes,
             &side_view,
             &by_volume,
+            None,
             "side view (x right, z up): storeys apart",
         );
     }
@@ -274,7 +387,7 @@ pub fn cells_svg_with(model: &Model, doc: &ResultDoc, notes: &Notes<'_>) -> Stri
     let y = if side {
         side_view.origin.1 + ext(2) * s + 30.0
     } else {
-        HEADER + top_h + 30.0
+        HEADER + top_h + slices_h + 30.0
     };
     let x0 = MARGIN;
     let x1 = MARGIN + bar * s;
@@ -383,6 +496,9 @@ pub fn cells_svg_with(model: &Model, doc: &ResultDoc, notes: &Notes<'_>) -> Stri
 }
 
 /// Draws one panel: cells, walls, portals, truth, labels.
+// The run, its notes and the panel's projection, filter and caption: a struct would only
+// regroup them for this one private function.
+#[allow(clippy::too_many_arguments)]
 fn draw_view(
     out: &mut String,
     model: &Model,
@@ -390,8 +506,29 @@ fn draw_view(
     notes: &Notes<'_>,
     v: &View,
     by_volume: &[usize],
+    only: Option<&Storey>,
     caption: &str,
 ) {
+    // A storey panel draws its cells, the portals touching them, and the model polygons,
+    // truth points and doorways of its height band (floor, next).
+    let tol = model.tolerances.coplanar_abs();
+    let in_band = |zlo: f64, zhi: f64| {
+        only.is_none_or(|st| {
+            if zhi - zlo <= 2.0 * tol {
+                // Level (a floor, a point): from the floor up to below the next floor.
+                zlo > st.floor - tol && zlo < st.next - tol
+            } else {
+                zlo < st.next - tol && zhi > st.floor + tol
+            }
+        })
+    };
+    let z_range = |pts: &mut dyn Iterator<Item = &P3>| {
+        pts.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+            (a.min(p[2]), b.max(p[2]))
+        })
+    };
+    let shown_cell = |i: usize| only.is_none_or(|st| st.cells.binary_search(&i).is_ok());
+    let shown_id = |id: u32| doc.cells.binary_search_by_key(&id, |c| c.id).is_ok_and(&shown_cell);
     let _ = writeln!(
         out,
         r##"<text x="{:.1}" y="{:.1}" font-size="12" fill="#555">{}</text>"##,
@@ -402,6 +539,9 @@ fn draw_view(
     let total: f64 = doc.cells.iter().map(|c| c.volume).sum();
     let _ = writeln!(out, r#"<g class="cells" stroke="none">"#);
     for &i in by_volume {
+        if !shown_cell(i) {
+            continue;
+        }
         let c = &doc.cells[i];
         let mut d = String::new();
         for p in &c.pieces {
@@ -440,6 +580,10 @@ fn draw_view(
         if l.is_nan() || l <= 0.0 {
             continue;
         }
+        let (zlo, zhi) = z_range(&mut p.verts.iter().map(|q| &model.vertices[q.idx()]));
+        if !in_band(zlo, zhi) {
+            continue;
+        }
         let pts: Vec<(f64, f64)> = p.verts.iter().map(|q| v.pt(&model.vertices[q.idx()])).collect();
         // The top view looks down (-z), the side view along +y.
         let toward = if v.axis == 1 { n[2] } else { -n[1] };
@@ -460,6 +604,9 @@ fn draw_view(
         );
     }
     for p in &doc.portals {
+        if !(shown_id(p.cells[0]) || shown_id(p.cells[1])) {
+            continue;
+        }
         let mut d = String::new();
         for poly in &p.polygons {
             let pts: Vec<(f64, f64)> = poly.iter().map(|q| v.pt(q)).collect();
@@ -473,6 +620,10 @@ fn draw_view(
     }
     if let Some(t) = notes.truth {
         for dw in &t.doorways {
+            let (zlo, zhi) = z_range(&mut dw.polygon.iter());
+            if !in_band(zlo, zhi) {
+                continue;
+            }
             let pts: Vec<(f64, f64)> = dw.polygon.iter().map(|q| v.pt(q)).collect();
             let mut d = String::new();
             path_d(&mut d, &pts);
@@ -482,14 +633,15 @@ fn draw_view(
             );
         }
         for r in &t.rooms {
-            for q in &r.samples {
+            let samples: Vec<&P3> = r.samples.iter().filter(|q| in_band(q[2], q[2])).collect();
+            for q in &samples {
                 let (x, y) = v.pt(q);
                 let _ = writeln!(
                     out,
                     r##"<circle cx="{x:.2}" cy="{y:.2}" r="3.5" fill="white" stroke="#000" stroke-width="1.2"/>"##
                 );
             }
-            if let Some(q) = r.samples.first() {
+            if let Some(q) = samples.first() {
                 let (x, y) = v.pt(q);
                 let _ = writeln!(
                     out,
@@ -503,7 +655,10 @@ fn draw_view(
     }
     // Cell ids at the volume-weighted centre of their pieces.
     if doc.cells.len() <= MAX_LABELS {
-        for c in &doc.cells {
+        for (i, c) in doc.cells.iter().enumerate() {
+            if !shown_cell(i) {
+                continue;
+            }
             let mut acc = [0.0; 3];
             let mut w = 0.0;
             for p in &c.pieces {
