@@ -640,7 +640,8 @@ fn merged_portal_windows_are_conservative_on_nonaligned_doors() {
                 p.pieces.iter().any(|q| {
                     let n = portalfind::base::vec::fan_normal(q);
                     let c = portalfind::base::vec::cross(&n0, &n);
-                    portalfind::base::vec::norm(&c) > 1e-6 * portalfind::base::vec::norm(&n0) * portalfind::base::vec::norm(&n)
+                    portalfind::base::vec::norm(&c)
+                        > 1e-6 * portalfind::base::vec::norm(&n0) * portalfind::base::vec::norm(&n)
                 })
             })
             .count();
@@ -663,7 +664,11 @@ fn merged_portal_windows_are_conservative_on_nonaligned_doors() {
             let (rep, frames) = walk::walkthrough(&scene, &ws);
             for f in &frames {
                 for k in 1..walk::NREPS {
-                    assert!(f.rep_tris[k] >= f.rep_tris[0], "cells {cells}, roll {roll}, {}: {f:?}", walk::REPS[k]);
+                    assert!(
+                        f.rep_tris[k] >= f.rep_tris[0],
+                        "cells {cells}, roll {roll}, {}: {f:?}",
+                        walk::REPS[k]
+                    );
                 }
             }
             let (cams, _) = walk::cameras(&scene, &ws);
@@ -686,7 +691,11 @@ fn merged_portal_windows_are_conservative_on_nonaligned_doors() {
                 rep.frames,
                 rep.reps
                     .iter()
-                    .map(|s| (s.name.clone(), (s.mean_triangles * 10.0).round() / 10.0, (s.mean_portals * 100.0).round() / 100.0))
+                    .map(|s| (
+                        s.name.clone(),
+                        (s.mean_triangles * 10.0).round() / 10.0,
+                        (s.mean_portals * 100.0).round() / 100.0
+                    ))
                     .collect::<Vec<_>>()
             );
         }

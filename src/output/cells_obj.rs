@@ -131,7 +131,13 @@ pub fn cells_obj_text(cx: &CellComplex, partition: &Partition, header: &str) -> 
         object(&mut obj, &mut next, &name, "portal", &faces);
         let pieces: Vec<Vec<P3>> = p.pieces.iter().map(|q| q.verts.clone()).collect();
         if let Some(h) = convex_portal(&pieces) {
-            object(&mut obj, &mut next, &format!("{name}_hull"), "portal_hull", &[&h.verts[..]]);
+            object(
+                &mut obj,
+                &mut next,
+                &format!("{name}_hull"),
+                "portal_hull",
+                &[&h.verts[..]],
+            );
         }
     }
     let [r, g, b, a] = PORTAL_COLOUR;

@@ -64,7 +64,10 @@ impl Hole {
     fn centre(&self) -> [f64; 2] {
         let b = self.boundary();
         let n = b.len() as f64;
-        [b.iter().map(|p| p[0]).sum::<f64>() / n, b.iter().map(|p| p[1]).sum::<f64>() / n]
+        [
+            b.iter().map(|p| p[0]).sum::<f64>() / n,
+            b.iter().map(|p| p[1]).sum::<f64>() / n,
+        ]
     }
 }
 
@@ -117,10 +120,16 @@ pub fn nonaligned_doors() -> ThesisModel {
         }
         truth.rooms.push(Room {
             name: format!("room {i}"),
-            samples: [[0.0, 0.0, 0.0], [-1.2, -1.2, -0.8], [1.2, -1.2, 0.6], [1.2, 1.2, -0.6], [-1.2, 1.2, 0.8]]
-                .iter()
-                .map(|o| [c[0] + o[0], c[1] + o[1], c[2] + o[2]])
-                .collect(),
+            samples: [
+                [0.0, 0.0, 0.0],
+                [-1.2, -1.2, -0.8],
+                [1.2, -1.2, 0.6],
+                [1.2, 1.2, -0.6],
+                [-1.2, 1.2, 0.8],
+            ]
+            .iter()
+            .map(|o| [c[0] + o[0], c[1] + o[1], c[2] + o[2]])
+            .collect(),
         });
     }
     // The openings' sides (1 m deep tubes through the wall gap), facing their axis.

@@ -197,21 +197,24 @@ impl Ord for OrdF {
 
 /// The planes through the eye and the edges of the counter-clockwise screen polygon `p`
 /// (inside: the polygon), with the near plane first.
+///
+/// Each normal is `e × d_i`, with `d_i` the ray through the edge's first vertex and
+/// `e = (Δx) right + (Δy) up` the edge's direction built from its screen differences: no
+/// cancellation however short the edge (hulls of merged portals have edges of 1e-16 between
+/// points that rounding split), and no orientation test — for a counter-clockwise polygon
+/// (`right × up = −forward`) it points inside. Zero-length edges give no plane.
 pub fn planes_of(cam: &Camera, p: &[P2]) -> Vec<Plane> {
     let mut planes = vec![cam.near_plane()];
-    let c = [
-        p.iter().map(|q| q[0]).sum::<f64>() / p.len() as f64,
-        p.iter().map(|q| q[1]).sum::<f64>() / p.len() as f64,
-    ];
-    let dc = cam.dir(&c);
     for i in 0..p.len() {
         let j = (i + 1) % p.len();
-        let mut n = cross(&cam.dir(&p[i]), &cam.dir(&p[j]));
-        if norm(&n) <= 1e-300 {
+        let (dx, dy) = (p[j][0] - p[i][0], p[j][1] - p[i][1]);
+        if dx == 0.0 && dy == 0.0 {
             continue;
         }
-        if dot(&n, &dc) < 0.0 {
-            n = [-n[0], -n[1], -n[2]];
+        let e: P3 = std::array::from_fn(|k| dx * cam.right[k] + dy * cam.up[k]);
+        let n = cross(&e, &cam.dir(&p[i]));
+        if norm(&n) <= 1e-300 {
+            continue;
         }
         planes.push(Plane {
             n,
@@ -360,7 +363,8 @@ impl<const M: bool> Window for HullWindow<M> {
 
     fn narrow_portal(&self, cam: &Camera, pieces: &[&[P3]], ops: &mut Ops) -> Option<Self> {
         ops.narrows += 1;
-        narrow_screen(&self.poly, &self.planes, cam, pieces, None, ops).map(|(poly, planes)| HullWindow { poly, planes })
+        narrow_screen(&self.poly, &self.planes, cam, pieces, None, ops)
+            .map(|(poly, planes)| HullWindow { poly, planes })
     }
 
     fn sees(&self, cam: &Camera, tri: &[P3; 3], ops: &mut Ops) -> bool {

@@ -122,7 +122,13 @@ impl Mask {
     /// Rasterises the convex polygon `p` (pixel coordinates) conservatively: `visit(row, c0,
     /// c1)` for every row the polygon meets, with the columns it meets there, within rows
     /// `rows.0..rows.1`. Counts the pixels spanned.
-    fn raster(&self, p: &[[f64; 2]], rows: (usize, usize), pixels: &mut u64, mut visit: impl FnMut(usize, usize, usize) -> bool) -> bool {
+    fn raster(
+        &self,
+        p: &[[f64; 2]],
+        rows: (usize, usize),
+        pixels: &mut u64,
+        mut visit: impl FnMut(usize, usize, usize) -> bool,
+    ) -> bool {
         if p.is_empty() {
             return false;
         }
@@ -383,7 +389,9 @@ mod tests {
         let tri = |y: f64, z: f64| -> [P3; 3] { [[20.0, y, z], [20.0, y + 0.2, z], [20.0, y, z + 0.2]] };
         let behind_a = tri(-2.0, 0.5);
         let behind_notch = tri(1.0, 1.0);
-        let mw = MaskWindow::<true>::view(&cam).narrow_portal(&cam, &refs, &mut ops).expect("seen");
+        let mw = MaskWindow::<true>::view(&cam)
+            .narrow_portal(&cam, &refs, &mut ops)
+            .expect("seen");
         assert!(mw.sees(&cam, &behind_a, &mut ops));
         assert!(!mw.sees(&cam, &behind_notch, &mut ops));
         let hw = super::super::kgon::HullWindow::<true>::view(&cam)

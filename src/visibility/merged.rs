@@ -96,7 +96,10 @@ mod tests {
         assert!(p.thickness < 1e-15);
         let area = 0.5 * norm(&fan_normal(&p.verts));
         assert!((area - 2.0).abs() < 1e-12, "{area}");
-        assert!(dot(&fan_normal(&p.verts), &p.normal) > 0.0, "counter-clockwise around n");
+        assert!(
+            dot(&fan_normal(&p.verts), &p.normal) > 0.0,
+            "counter-clockwise around n"
+        );
         // Bent: the second square turned up 90° about the shared edge x = 1.
         let c = vec![[1.0, 0.0, 1.0], [1.0, 0.0, 2.0], [1.0, 1.0, 2.0], [1.0, 1.0, 1.0]];
         let p = convex_portal(&[a, c]).unwrap();
