@@ -741,7 +741,12 @@ fn merged_hull_on_every_frame_of_doors_at_40_cells() {
             let refs: Vec<&[[f64; 3]]> = p.pieces.iter().map(|q| q.as_slice()).collect();
             let mut ops = walk::Ops::default();
             let w = HullWindow::<true>::view(&cam).narrow_portal(&cam, &refs, &mut ops);
-            eprintln!("  portal {:?}: {} pieces; merged {:?}", p.cells, p.pieces.len(), w.map(|w| w.poly));
+            eprintln!(
+                "  portal {:?}: {} pieces; merged {:?}",
+                p.cells,
+                p.pieces.len(),
+                w.map(|w| w.poly)
+            );
             for q in &p.pieces {
                 let w = HullWindow::<true>::view(&cam).narrow(&cam, q, &mut ops);
                 eprintln!("    piece {q:?}\n      -> {:?}", w.map(|w| w.poly));
