@@ -704,30 +704,37 @@ fn merged_portal_windows_are_conservative_on_nonaligned_doors() {
     assert!(bent_total > 0, "no portal with non-coplanar pieces to test");
 }
 
-/// Known defect (issue 14): on the non-aligned-doors model at 40 cells, the merged convex hull
-/// window culls a triangle the exact per-piece windows draw in one frame of the default
-/// 2001-frame walkthrough (level: frame 1889). Prints the frames and the portals of the
-/// camera's cell, merged and per piece, and fails while the defect stands:
-/// `cargo test --release --test visibility -- --ignored merged_hull_on_every_frame --nocapture`.
+/// The run that showed the merged hull's rounding defect (fixed in `kgon::planes_of`: short
+/// hull edges gave planes pointing the wrong way): `results/visibility/nonaligned_doors_cells40`
+/// (aspect, cells:40, 16 bent portals) rebuilt as `evaluate` does; on every frame of its
+/// walkthrough the merged hull draws at least the exact window's count, and triangle by
+/// triangle no triangle the exact per-piece windows draw. Prints what it finds.
 #[test]
-#[ignore = "known defect: the merged hull misses a triangle in 1 of 2001 frames"]
 fn merged_hull_on_every_frame_of_doors_at_40_cells() {
     use portalfind::visibility::kgon::HullWindow;
     use portalfind::visibility::walk::{self, Scene, WalkSettings, Window};
-    let d = portalfind::visibility::doors::nonaligned_doors();
-    let (m, cx) = build(&d.soup);
-    let part = decimated(&cx, 40);
-    let v = PartitionVisibility::compute(&m, &cx, &part, &PvsSettings::default());
-    let pieces = sample::pieces_of_partition(&part);
+    // The committed run (aspect, cells:40), rebuilt as `evaluate` does.
+    let run = portalfind::evaluate::load_run(Path::new("results/visibility/nonaligned_doors_cells40"), None)
+        .expect("results/visibility/nonaligned_doors_cells40");
+    let (m, cx, part) = (&run.model, &run.cx, &run.partition);
+    let v = PartitionVisibility::compute(m, cx, part, &PvsSettings::default());
+    let pieces = sample::pieces_of_partition(part);
     let scene = Scene {
-        model: &m,
-        cx: &cx,
+        model: m,
+        cx,
         graph: &v.graph,
         polygons: &v.polygons,
         pieces: &pieces,
     };
     let (cams, _) = walk::cameras(&scene, &WalkSettings::default());
-    let mut bad = 0;
+    let (_, frames) = walk::walkthrough(&scene, &WalkSettings::default());
+    let below: Vec<(usize, [u64; walk::NREPS])> = frames
+        .iter()
+        .filter(|f| f.rep_tris[6] < f.rep_tris[0])
+        .map(|f| (f.frame, f.rep_tris))
+        .collect();
+    eprintln!("walkthrough frames with the merged hull below exact: {below:?}");
+    let mut bad = below.len();
     for (f, &(cam, cell)) in cams.iter().enumerate() {
         let e = walk::drawn::<walk::ExactWindow>(&scene, &cam, cell);
         let h = walk::drawn::<HullWindow<true>>(&scene, &cam, cell);
@@ -758,4 +765,5 @@ fn merged_hull_on_every_frame_of_doors_at_40_cells() {
     }
     eprintln!("{bad} bad frames of {}", cams.len());
     assert_eq!(bad, 0, "the merged hull culled triangles the exact window draws");
+    assert_eq!(frames.len(), cams.len());
 }
