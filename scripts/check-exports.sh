@@ -94,12 +94,13 @@ fi
 # --- OBJ: portalfind's own reader, object counts ------------------------------------------
 if "$bin" info "$out/cells.obj" >"$work/obj-info.txt" 2>&1; then
   ocells=$(grep -c '^o Cell_' "$out/cells.obj" || true)
-  oportals=$(grep -c '^o Portal_' "$out/cells.obj" || true)
+  oportals=$(grep -c '^o Portal_[0-9]*_[0-9]*$' "$out/cells.obj" || true)
+  ohulls=$(grep -c '^o Portal_[0-9]*_[0-9]*_hull$' "$out/cells.obj" || true)
   faces=$(grep -c '^f ' "$out/cells.obj" || true)
-  if [ "$ocells" = "$cells" ] && [ "$oportals" = "$pairs" ]; then
-    pass "OBJ read back by portalfind info: $faces faces; $ocells Cell_ and $oportals Portal_ objects"
+  if [ "$ocells" = "$cells" ] && [ "$oportals" = "$pairs" ] && [ "$ohulls" = "$pairs" ]; then
+    pass "OBJ read back by portalfind info: $faces faces; $ocells Cell_, $oportals Portal_ and $ohulls Portal_*_hull objects"
   else
-    bad "OBJ: $ocells Cell_ objects (want $cells), $oportals Portal_ objects (want $pairs)"
+    bad "OBJ: $ocells Cell_ objects (want $cells), $oportals Portal_ and $ohulls Portal_*_hull objects (want $pairs each)"
   fi
 else
   bad "OBJ: portalfind info failed: $(tail -3 "$work/obj-info.txt")"

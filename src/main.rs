@@ -274,12 +274,18 @@ struct EvalArgs {
     /// PVS: let portal chains re-enter cells (the old, slow rule; for comparison only).
     #[arg(long)]
     pvs_revisit_cells: bool,
+    /// PVS: do not clip the source by the separating planes (the old rule; for comparison).
+    #[arg(long)]
+    pvs_no_clip_source: bool,
     /// Walkthrough: horizontal field of view in degrees (the image is 4:3).
     #[arg(long, default_value_t = 90.0)]
     fov: f64,
     /// Walkthrough: the model's up axis (x, y or z).
     #[arg(long, default_value = "z", value_parser = ["x", "y", "z"])]
     up: String,
+    /// Walkthrough: width in pixels of the per-pixel portal masks (the `mask` windows).
+    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(1..=8192))]
+    mask_width: u32,
 }
 
 impl EvalArgs {
@@ -289,6 +295,7 @@ impl EvalArgs {
             pvs: PvsSettings {
                 max_steps_per_source: self.pvs_budget,
                 revisit_cells: self.pvs_revisit_cells,
+                clip_source: !self.pvs_no_clip_source,
                 ..Default::default()
             },
             sampling: (!self.no_sampling).then_some(SampleSettings {
@@ -299,6 +306,7 @@ impl EvalArgs {
             walkthrough: self.walkthrough.then(|| WalkSettings {
                 fov_deg: self.fov,
                 up_axis: ["x", "y", "z"].iter().position(|a| *a == self.up).unwrap_or(2),
+                mask_width: self.mask_width as usize,
                 ..Default::default()
             }),
         }

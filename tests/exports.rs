@@ -306,7 +306,19 @@ fn obj_has_one_object_per_cell_and_portal_and_reads_back() {
     export_all(&dir, &m, &r);
     let doc = &r.doc;
     let text = std::fs::read_to_string(dir.join("cells.obj")).unwrap();
-    let objects = obj_objects(&text);
+    let all_objects = obj_objects(&text);
+    // Each portal's convex stand-in, `Portal_<a>_<b>_hull`: one face, after its portal.
+    let hulls: BTreeSet<String> = all_objects.keys().filter(|n| n.ends_with("_hull")).cloned().collect();
+    assert_eq!(hulls.len(), doc.portals.len());
+    for h in &hulls {
+        assert_eq!(all_objects[h], 1, "{h}");
+        assert!(all_objects.contains_key(h.strip_suffix("_hull").unwrap()), "{h}");
+    }
+    let objects: BTreeMap<String, usize> = all_objects
+        .iter()
+        .filter(|(n, _)| !n.ends_with("_hull"))
+        .map(|(n, f)| (n.clone(), *f))
+        .collect();
     let expect: BTreeSet<String> = doc
         .cells
         .iter()
@@ -326,11 +338,16 @@ fn obj_has_one_object_per_cell_and_portal_and_reads_back() {
     }
     // The project's own reader takes it: every face read, every material one of ours.
     let back = portalfind::model::load_model(&dir.join("cells.obj")).unwrap();
-    let faces: usize = objects.values().sum();
+    let faces: usize = all_objects.values().sum();
     assert_eq!(back.report.input_polygons, faces);
     // (Portal faces coincide with a cell's boundary face, so cleaning drops them as
     // duplicates: only the cells' materials survive it.)
-    let mats: BTreeSet<String> = back.polygons.iter().filter_map(|p| p.material.clone()).collect();
+    let mats: BTreeSet<String> = back
+        .polygons
+        .iter()
+        .filter_map(|p| p.material.clone())
+        .filter(|m| m != "portal_hull")
+        .collect();
     let mut want: BTreeSet<String> = doc.cells.iter().map(|c| format!("cell_{}", c.id)).collect();
     assert_eq!(mats, want);
     assert!(text.lines().any(|l| l == "usemtl portal"));

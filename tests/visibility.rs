@@ -508,7 +508,6 @@ fn no_reentry_is_tighter_and_conservative_on_thesis_models() {
 /// (either window) draws no more than view-frustum culling.
 #[test]
 fn walkthrough_counts_on_two_rooms() {
-    use portalfind::visibility::kgon::KgonWindow;
     use portalfind::visibility::walk::{self, Scene, WalkSettings};
     let (m, cx) = build(&row_of_rooms(2));
     let part = decimated(&cx, 3);
@@ -569,12 +568,7 @@ fn walkthrough_counts_on_two_rooms() {
         for &(cam, cell) in cams.iter().step_by(7) {
             let e = walk::drawn::<walk::ExactWindow>(&scene, &cam, cell);
             assert_eq!(e.len(), tris(&m));
-            let others = [
-                walk::drawn::<walk::RectWindow>(&scene, &cam, cell),
-                walk::drawn::<KgonWindow<4>>(&scene, &cam, cell),
-                walk::drawn::<KgonWindow<6>>(&scene, &cam, cell),
-                walk::drawn::<KgonWindow<8>>(&scene, &cam, cell),
-            ];
+            let others = drawn_by_every_window(&scene, &cam, cell);
             for (k, o) in others.iter().enumerate() {
                 for (i, (a, b)) in e.iter().zip(o).enumerate() {
                     assert!(
@@ -595,4 +589,181 @@ fn walkthrough_counts_on_two_rooms() {
         );
     }
     assert!(r.mean[1] < r.mean[0], "portal culling culls something: {:?}", r.mean);
+}
+
+/// What one frame draws with every window but the exact one, in [`walk::REPS`] order.
+fn drawn_by_every_window(
+    scene: &portalfind::visibility::walk::Scene,
+    cam: &portalfind::visibility::walk::Camera,
+    cell: u32,
+) -> Vec<Vec<bool>> {
+    use portalfind::visibility::kgon::{HullWindow, KgonWindow};
+    use portalfind::visibility::mask::MaskWindow;
+    use portalfind::visibility::walk::{self, Window};
+    let v = vec![
+        walk::drawn::<walk::RectWindow>(scene, cam, cell),
+        walk::drawn::<KgonWindow<4>>(scene, cam, cell),
+        walk::drawn::<KgonWindow<6>>(scene, cam, cell),
+        walk::drawn::<KgonWindow<8>>(scene, cam, cell),
+        walk::drawn::<HullWindow<false>>(scene, cam, cell),
+        walk::drawn::<HullWindow<true>>(scene, cam, cell),
+        walk::drawn::<MaskWindow<false>>(scene, cam, cell),
+        walk::drawn::<MaskWindow<true>>(scene, cam, cell),
+    ];
+    assert_eq!(v.len() + 1, walk::NREPS);
+    assert_eq!(HullWindow::<true>::NAME, walk::REPS[6]);
+    v
+}
+
+/// Arbitrary (merged, non-planar) portals on the non-aligned-doors model, decimated so that
+/// portals have several non-coplanar pieces: no window — the merged convex hull, the
+/// per-pixel masks (merged and per piece), the rectangle, the k-gons — culls a triangle
+/// that the exact per-piece windows draw, level and rolled 30°, and each frame's counts are
+/// ordered the same way.
+#[test]
+fn merged_portal_windows_are_conservative_on_nonaligned_doors() {
+    use portalfind::visibility::walk::{self, Scene, WalkSettings};
+    let d = portalfind::visibility::doors::nonaligned_doors();
+    let (m, cx) = build(&d.soup);
+    let mut multi_checked = 0;
+    let mut bent_total = 0;
+    for cells in [6usize, 40] {
+        let part = decimated(&cx, cells);
+        let v = PartitionVisibility::compute(&m, &cx, &part, &PvsSettings::default());
+        // Portals made of non-coplanar pieces exist.
+        let bent = v
+            .graph
+            .portals
+            .iter()
+            .filter(|p| {
+                let n0 = portalfind::base::vec::fan_normal(&p.pieces[0]);
+                p.pieces.iter().any(|q| {
+                    let n = portalfind::base::vec::fan_normal(q);
+                    let c = portalfind::base::vec::cross(&n0, &n);
+                    portalfind::base::vec::norm(&c)
+                        > 1e-6 * portalfind::base::vec::norm(&n0) * portalfind::base::vec::norm(&n)
+                })
+            })
+            .count();
+        bent_total += bent;
+        let pieces = sample::pieces_of_partition(&part);
+        let scene = Scene {
+            model: &m,
+            cx: &cx,
+            graph: &v.graph,
+            polygons: &v.polygons,
+            pieces: &pieces,
+        };
+        for roll in [0.0, 30.0] {
+            let ws = WalkSettings {
+                roll_deg: roll,
+                max_frames: 400,
+                mask_width: 128,
+                ..WalkSettings::default()
+            };
+            let (rep, frames) = walk::walkthrough(&scene, &ws);
+            for f in &frames {
+                for k in 1..walk::NREPS {
+                    assert!(
+                        f.rep_tris[k] >= f.rep_tris[0],
+                        "cells {cells}, roll {roll}, {}: {f:?}",
+                        walk::REPS[k]
+                    );
+                }
+            }
+            let (cams, _) = walk::cameras(&scene, &ws);
+            for &(cam, cell) in cams.iter().step_by(5) {
+                let e = walk::drawn::<walk::ExactWindow>(&scene, &cam, cell);
+                for (k, o) in drawn_by_every_window(&scene, &cam, cell).iter().enumerate() {
+                    for (i, (a, b)) in e.iter().zip(o).enumerate() {
+                        assert!(
+                            !*a || *b,
+                            "cells {cells}, roll {roll}: {} culls triangle {i} the exact window draws",
+                            walk::REPS[k + 1]
+                        );
+                    }
+                }
+                multi_checked += 1;
+            }
+            eprintln!(
+                "cells {} ({bent} bent portals), roll {roll}: {} frames; mean triangles / portals {:?}",
+                part.len(),
+                rep.frames,
+                rep.reps
+                    .iter()
+                    .map(|s| (
+                        s.name.clone(),
+                        (s.mean_triangles * 10.0).round() / 10.0,
+                        (s.mean_portals * 100.0).round() / 100.0
+                    ))
+                    .collect::<Vec<_>>()
+            );
+        }
+    }
+    assert!(multi_checked > 0);
+    assert!(bent_total > 0, "no portal with non-coplanar pieces to test");
+}
+
+/// The run that showed the merged hull's rounding defect (fixed in `kgon::planes_of`: short
+/// hull edges gave planes pointing the wrong way): `results/visibility/nonaligned_doors_cells40`
+/// (aspect, cells:40, 16 bent portals) rebuilt as `evaluate` does; on every frame of its
+/// walkthrough the merged hull draws at least the exact window's count, and triangle by
+/// triangle no triangle the exact per-piece windows draw. Prints what it finds.
+#[test]
+fn merged_hull_on_every_frame_of_doors_at_40_cells() {
+    use portalfind::visibility::kgon::HullWindow;
+    use portalfind::visibility::walk::{self, Scene, WalkSettings, Window};
+    // The committed run (aspect, cells:40), rebuilt as `evaluate` does.
+    let run = portalfind::evaluate::load_run(Path::new("results/visibility/nonaligned_doors_cells40"), None)
+        .expect("results/visibility/nonaligned_doors_cells40");
+    let (m, cx, part) = (&run.model, &run.cx, &run.partition);
+    let v = PartitionVisibility::compute(m, cx, part, &PvsSettings::default());
+    let pieces = sample::pieces_of_partition(part);
+    let scene = Scene {
+        model: m,
+        cx,
+        graph: &v.graph,
+        polygons: &v.polygons,
+        pieces: &pieces,
+    };
+    let (cams, _) = walk::cameras(&scene, &WalkSettings::default());
+    let (_, frames) = walk::walkthrough(&scene, &WalkSettings::default());
+    let below: Vec<(usize, [u64; walk::NREPS])> = frames
+        .iter()
+        .filter(|f| f.rep_tris[6] < f.rep_tris[0])
+        .map(|f| (f.frame, f.rep_tris))
+        .collect();
+    eprintln!("walkthrough frames with the merged hull below exact: {below:?}");
+    let mut bad = below.len();
+    for (f, &(cam, cell)) in cams.iter().enumerate() {
+        let e = walk::drawn::<walk::ExactWindow>(&scene, &cam, cell);
+        let h = walk::drawn::<HullWindow<true>>(&scene, &cam, cell);
+        let missed: Vec<usize> = (0..e.len()).filter(|&i| e[i] && !h[i]).collect();
+        if missed.is_empty() {
+            continue;
+        }
+        bad += 1;
+        eprintln!("frame {f}: cell {cell}, eye {:?}, missed {missed:?}", cam.eye);
+        for p in v.graph.portals.iter().filter(|p| p.cells.contains(&cell)) {
+            let refs: Vec<&[[f64; 3]]> = p.pieces.iter().map(|q| q.as_slice()).collect();
+            let mut ops = walk::Ops::default();
+            let w = HullWindow::<true>::view(&cam).narrow_portal(&cam, &refs, &mut ops);
+            eprintln!(
+                "  portal {:?}: {} pieces; merged {:?}",
+                p.cells,
+                p.pieces.len(),
+                w.map(|w| w.poly)
+            );
+            for q in &p.pieces {
+                let w = HullWindow::<true>::view(&cam).narrow(&cam, q, &mut ops);
+                eprintln!("    piece {q:?}\n      -> {:?}", w.map(|w| w.poly));
+            }
+        }
+        if bad > 3 {
+            break;
+        }
+    }
+    eprintln!("{bad} bad frames of {}", cams.len());
+    assert_eq!(bad, 0, "the merged hull culled triangles the exact window draws");
+    assert_eq!(frames.len(), cams.len());
 }

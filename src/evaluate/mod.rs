@@ -54,7 +54,7 @@ fn write_frames(tmp: &Path, names: &[String; 5], frames: &[Frame]) -> Result<(),
     head.extend(names.iter().cloned());
     head.extend(["portals_traversed".into(), "cells_drawn".into(), "quads_k".into()]);
     for r in walk::REPS {
-        for c in ["triangles", "portals", "overdraw", "clips", "clip_vertices"] {
+        for c in ["triangles", "portals", "overdraw", "clips", "clip_vertices", "cells"] {
             head.push(format!("{r}_{c}"));
         }
     }
@@ -81,6 +81,7 @@ fn write_frames(tmp: &Path, names: &[String; 5], frames: &[Frame]) -> Result<(),
             row.push(f.rep_tris[k].saturating_sub(f.rep_tris[0]).to_string());
             row.push(f.rep_clips[k].to_string());
             row.push(f.rep_vertices[k].to_string());
+            row.push(f.rep_cells[k].to_string());
         }
         w.write_record(&row)?;
     }
@@ -435,15 +436,21 @@ pub fn reps_table(w: &WalkReport) -> String {
         "\nWindow representations (camera roll {}°; overdraw = triangles beyond the exact window's):\n\n",
         ws.roll_deg
     );
-    s.push_str("| window | mean triangles | max | mean portals | mean overdraw | max overdraw | frames below exact | clips / frame | clip vertices / frame | 2D ops / frame | sphere rejects / frame | culling seconds |\n");
-    s.push_str("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+    s.push_str(
+        "Windows: `*_pieces` and exact/rect/k-gons narrow piece by piece; `hull` and `mask` once per \
+         merged portal (portals = windows passed: pieces, or merged portals; cells = cells drawn, with \
+         repetitions). Mask pixels/words: conservative raster spans and 64-pixel words read.\n\n",
+    );
+    s.push_str("| window | mean triangles | max | mean portals | mean cells | mean overdraw | max overdraw | frames below exact | clips / frame | clip vertices / frame | 2D ops / frame | sphere rejects / frame | mask pixels / frame | mask words / frame | culling ms / frame |\n");
+    s.push_str("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
     for r in &w.reps {
         s.push_str(&format!(
-            "| {} | {:.1} | {} | {:.2} | {:.2} | {} | {} | {:.0} | {:.0} | {:.0} | {:.1} | {:.3} |\n",
+            "| {} | {:.1} | {} | {:.2} | {:.2} | {:.2} | {} | {} | {:.0} | {:.0} | {:.0} | {:.1} | {:.0} | {:.0} | {:.3} |\n",
             r.name,
             r.mean_triangles,
             r.max_triangles,
             r.mean_portals,
+            r.mean_cells,
             r.mean_overdraw,
             r.max_overdraw,
             r.frames_below_exact,
@@ -451,7 +458,9 @@ pub fn reps_table(w: &WalkReport) -> String {
             r.ops.vertices as f64 / nf,
             r.ops.screen_ops as f64 / nf,
             r.ops.sphere_rejects as f64 / nf,
-            r.seconds
+            r.ops.mask_pixels as f64 / nf,
+            r.ops.mask_words as f64 / nf,
+            1e3 * r.seconds / nf
         ));
     }
     s

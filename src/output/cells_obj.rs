@@ -8,8 +8,14 @@
 //! - One object per pair of cells with portals, `o Portal_<a>_<b>` (`a < b`) with material
 //!   `portal`: its convex pieces, counter-clockwise seen from cell `b` (normals from `a` to
 //!   `b`).
+//!   This is the merged portal as one surface (pieces stitched at shared vertices, possibly
+//!   non-planar).
+//! - After each, `o Portal_<a>_<b>_hull` with material `portal_hull`: one convex planar
+//!   polygon standing in for the whole portal, for engines that take only convex portals
+//!   ([`crate::visibility::merged::convex_portal`]: the hull of the pieces projected along
+//!   their mean normal, normal from `a` to `b`; omitted when the pieces' normals cancel).
 //! - `cells.mtl`: one diffuse colour per cell (hues by the golden ratio, so neighbouring ids
-//!   differ), portals yellow and half transparent.
+//!   differ), portals yellow and half transparent, portal hulls orange and more transparent.
 //!
 //! Vertices are shared within an object (bit-identical coordinates), not between objects,
 //! so each object is a separate mesh when imported.
@@ -20,6 +26,7 @@ use crate::complex::{CellComplex, HULL};
 use crate::decimate::{MergedCell, Partition};
 use crate::geom::ConvexPolygon;
 use crate::predicates::P3;
+use crate::visibility::merged::convex_portal;
 use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -75,6 +82,9 @@ pub(super) fn cell_colour(i: usize) -> [f64; 3] {
 /// The portal colour (RGB) and opacity.
 pub(super) const PORTAL_COLOUR: [f64; 4] = [1.0, 0.82, 0.1, 0.5];
 
+/// The portal hulls' colour (RGB) and opacity.
+pub(super) const PORTAL_HULL_COLOUR: [f64; 4] = [1.0, 0.45, 0.05, 0.3];
+
 /// Appends one object's faces, sharing its vertices; `next` is the next OBJ vertex index.
 fn object(out: &mut String, next: &mut usize, name: &str, material: &str, faces: &[&[P3]]) {
     let _ = writeln!(out, "o {name}\nusemtl {material}");
@@ -117,16 +127,23 @@ pub fn cells_obj_text(cx: &CellComplex, partition: &Partition, header: &str) -> 
     }
     for p in partition.portals(cx) {
         let faces: Vec<&[P3]> = p.pieces.iter().map(|q| &q.verts[..]).collect();
-        object(
-            &mut obj,
-            &mut next,
-            &format!("Portal_{}_{}", p.cells[0].0, p.cells[1].0),
-            "portal",
-            &faces,
-        );
+        let name = format!("Portal_{}_{}", p.cells[0].0, p.cells[1].0);
+        object(&mut obj, &mut next, &name, "portal", &faces);
+        let pieces: Vec<Vec<P3>> = p.pieces.iter().map(|q| q.verts.clone()).collect();
+        if let Some(h) = convex_portal(&pieces) {
+            object(
+                &mut obj,
+                &mut next,
+                &format!("{name}_hull"),
+                "portal_hull",
+                &[&h.verts[..]],
+            );
+        }
     }
     let [r, g, b, a] = PORTAL_COLOUR;
     let _ = writeln!(mtl, "\nnewmtl portal\nKd {r} {g} {b}\nKa 0 0 0\nd {a}");
+    let [r, g, b, a] = PORTAL_HULL_COLOUR;
+    let _ = writeln!(mtl, "\nnewmtl portal_hull\nKd {r} {g} {b}\nKa 0 0 0\nd {a}");
     (obj, mtl)
 }
 
@@ -154,7 +171,8 @@ impl Exporter for CellsObj {
         let cx = ctx.complex(OBJ)?;
         let header = format!(
             "portalfind {}: cells and portals of {} ({} cells, {} portal pairs)\n\
-             objects Cell_<id> (boundary faces, normals outward) and Portal_<a>_<b> (normals from a to b)",
+             objects Cell_<id> (boundary faces, normals outward), Portal_<a>_<b> (the merged portal's pieces, normals from a to b)\n\
+             and Portal_<a>_<b>_hull (one convex polygon containing the pieces' projection along their mean normal)",
             env!("CARGO_PKG_VERSION"),
             ctx.doc.model.name,
             ctx.doc.cells.len(),

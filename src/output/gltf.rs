@@ -22,6 +22,12 @@
 //! ways. Point the RoomManager's `roomlist` at `RoomList` and convert. Godot bounds each
 //! room by the convex hull of its meshes, while merged cells need not be convex.
 //!
+//! A second root, `Portals` (same rotation; not under `RoomList`, so Godot's conversion
+//! ignores it), holds per merged portal `Portal_<a>_<b>_surface` (all its pieces as one
+//! mesh, possibly non-planar) and `Portal_<a>_<b>_hull` (one convex planar polygon standing
+//! in for it, [`crate::visibility::merged::convex_portal`]; extras `{cells, pieces, normal,
+//! thickness}`, thickness = the pieces' largest distance from its plane).
+//!
 //! `extras` carry the data: rooms `{cell_id, volume, pieces}`, portals
 //! `{portal, cells, piece, area, pair_area}`, the root `{generator, model, cells, portals}`.
 //! Positions are `f32` (accessors with exact `min`/`max`); faces are fans of the convex
@@ -29,7 +35,7 @@
 //! portals translucent.
 
 use super::OutputError;
-use super::cells_obj::{PORTAL_COLOUR, boundary_faces, cell_colour};
+use super::cells_obj::{PORTAL_COLOUR, PORTAL_HULL_COLOUR, boundary_faces, cell_colour};
 use super::export::{ExportContext, Exporter, write_atomic};
 use crate::predicates::P3;
 use serde_json::{Value, json};
@@ -213,6 +219,41 @@ pub fn cells_glb(ctx: &ExportContext<'_>) -> Result<Vec<u8>, OutputError> {
             portal_nodes += 1;
         }
     }
+    // The merged surfaces and their convex stand-ins, under their own root.
+    let [r, g, bl, a] = PORTAL_HULL_COLOUR;
+    let hull_material = materials.len();
+    materials.push(json!({
+        "name": "portal_hull",
+        "pbrMetallicRoughness": { "baseColorFactor": [r, g, bl, a], "metallicFactor": 0.0, "roughnessFactor": 1.0 },
+        "alphaMode": "BLEND",
+        "doubleSided": true,
+    }));
+    let mut merged_children = Vec::new();
+    for p in &portals {
+        let (ida, idb) = (p.cells[0].0, p.cells[1].0);
+        let faces: Vec<&[P3]> = p.pieces.iter().map(|q| &q.verts[..]).collect();
+        let label = format!("Portal_{ida}_{idb}_surface");
+        if let Some(m) = b.mesh(&label, &faces, portal_material) {
+            nodes.push(json!({
+                "name": label,
+                "mesh": m,
+                "extras": { "cells": [ida, idb], "pieces": p.pieces.len(), "pair_area": p.area },
+            }));
+            merged_children.push(nodes.len() - 1);
+        }
+        let pieces: Vec<Vec<P3>> = p.pieces.iter().map(|q| q.verts.clone()).collect();
+        if let Some(h) = crate::visibility::merged::convex_portal(&pieces) {
+            let label = format!("Portal_{ida}_{idb}_hull");
+            if let Some(m) = b.mesh(&label, &[&h.verts[..]], hull_material) {
+                nodes.push(json!({
+                    "name": label,
+                    "mesh": m,
+                    "extras": { "cells": [ida, idb], "pieces": p.pieces.len(), "normal": h.normal, "thickness": h.thickness },
+                }));
+                merged_children.push(nodes.len() - 1);
+            }
+        }
+    }
     // Rooms without children must not carry an empty `children` array (glTF forbids it).
     for &rn in &rooms {
         if nodes[rn]["children"].as_array().is_some_and(|c| c.is_empty())
@@ -240,10 +281,20 @@ pub fn cells_glb(ctx: &ExportContext<'_>) -> Result<Vec<u8>, OutputError> {
     {
         o.remove("children");
     }
+    let mut roots = vec![0];
+    if !merged_children.is_empty() {
+        nodes.push(json!({
+            "name": "Portals",
+            "rotation": [-h, 0.0, 0.0, h],
+            "children": merged_children,
+            "extras": { "what": "per merged portal: Portal_<a>_<b>_surface (its pieces) and Portal_<a>_<b>_hull (a convex stand-in)" },
+        }));
+        roots.push(nodes.len() - 1);
+    }
     let mut doc = json!({
         "asset": { "version": "2.0", "generator": format!("portalfind {}", env!("CARGO_PKG_VERSION")) },
         "scene": 0,
-        "scenes": [{ "name": ctx.doc.model.name, "nodes": [0] }],
+        "scenes": [{ "name": ctx.doc.model.name, "nodes": roots }],
         "nodes": nodes,
         "materials": materials,
     });

@@ -197,21 +197,24 @@ impl Ord for OrdF {
 
 /// The planes through the eye and the edges of the counter-clockwise screen polygon `p`
 /// (inside: the polygon), with the near plane first.
+///
+/// Each normal is `e × d_i`, with `d_i` the ray through the edge's first vertex and
+/// `e = (Δx) right + (Δy) up` the edge's direction built from its screen differences: no
+/// cancellation however short the edge (hulls of merged portals have edges of 1e-16 between
+/// points that rounding split), and no orientation test — for a counter-clockwise polygon
+/// (`right × up = −forward`) it points inside. Zero-length edges give no plane.
 pub fn planes_of(cam: &Camera, p: &[P2]) -> Vec<Plane> {
     let mut planes = vec![cam.near_plane()];
-    let c = [
-        p.iter().map(|q| q[0]).sum::<f64>() / p.len() as f64,
-        p.iter().map(|q| q[1]).sum::<f64>() / p.len() as f64,
-    ];
-    let dc = cam.dir(&c);
     for i in 0..p.len() {
         let j = (i + 1) % p.len();
-        let mut n = cross(&cam.dir(&p[i]), &cam.dir(&p[j]));
-        if norm(&n) <= 1e-300 {
+        let (dx, dy) = (p[j][0] - p[i][0], p[j][1] - p[i][1]);
+        if dx == 0.0 && dy == 0.0 {
             continue;
         }
-        if dot(&n, &dc) < 0.0 {
-            n = [-n[0], -n[1], -n[2]];
+        let e: P3 = std::array::from_fn(|k| dx * cam.right[k] + dy * cam.up[k]);
+        let n = cross(&e, &cam.dir(&p[i]));
+        if norm(&n) <= 1e-300 {
+            continue;
         }
         planes.push(Plane {
             n,
@@ -262,32 +265,106 @@ impl<const K: usize> Window for KgonWindow<K> {
 
     fn narrow(&self, cam: &Camera, portal: &[P3], ops: &mut Ops) -> Option<Self> {
         ops.narrows += 1;
-        let (c, r) = sphere(portal);
+        narrow_screen(&self.poly, &self.planes, cam, &[portal], Some(K), ops)
+            .map(|(poly, planes)| KgonWindow { poly, planes })
+    }
+
+    fn sees(&self, cam: &Camera, tri: &[P3; 3], ops: &mut Ops) -> bool {
+        ops.triangle_tests += 1;
+        let (c, r) = sphere(tri);
         if sphere_outside(&self.planes, &c, r, cam.tol) {
             ops.sphere_rejects += 1;
-            return None;
+            return false;
         }
-        let q = clip_tol(portal, &self.planes, -cam.tol, ops)?;
+        clip_tol(tri, &self.planes, -cam.tol, ops).is_some()
+    }
+}
+
+/// Narrows the screen-polygon window (`poly`, `planes`) through the pieces of a portal: each
+/// piece is pre-rejected by bounding sphere and clipped leniently to the window, the
+/// projections' convex hull is intersected with `poly` and, with `k`, reduced to at most `k`
+/// edges. `None` when no piece is seen; the window unchanged when a kept piece touches the
+/// near plane or the projection is edge-on (conservative).
+fn narrow_screen(
+    poly: &[P2],
+    planes: &[Plane],
+    cam: &Camera,
+    pieces: &[&[P3]],
+    k: Option<usize>,
+    ops: &mut Ops,
+) -> Option<(Vec<P2>, Vec<Plane>)> {
+    let mut s: Vec<P2> = Vec::new();
+    for portal in pieces {
+        let (c, r) = sphere(portal);
+        if sphere_outside(planes, &c, r, cam.tol) {
+            ops.sphere_rejects += 1;
+            continue;
+        }
+        let Some(q) = clip_tol(portal, planes, -cam.tol, ops) else {
+            continue;
+        };
         if q.iter().any(|p| cam.depth(p) < 0.5 * cam.near) {
             // Kept by the lenient clip while touching the near plane: stay as we are.
-            return Some(self.clone());
+            return Some((poly.to_vec(), planes.to_vec()));
         }
-        let s: Vec<P2> = q.iter().map(|p| cam.screen(p)).collect();
-        let h = hull(&s, ops);
-        if h.len() < 3 {
-            // Seen edge-on: the exact window is a sliver; keep ours (conservative).
-            return Some(self.clone());
+        s.extend(q.iter().map(|p| cam.screen(p)));
+    }
+    if s.is_empty() {
+        return None;
+    }
+    let h = hull(&s, ops);
+    if h.len() < 3 {
+        // Seen edge-on: the exact window is a sliver; keep ours (conservative).
+        return Some((poly.to_vec(), planes.to_vec()));
+    }
+    let mut i = clip2(&h, poly, ops);
+    if i.len() < 3 || area(&i) <= 0.0 {
+        // Only touching our polygon (rounding): keep the projection itself.
+        i = h;
+    }
+    let i = hull(&i, ops);
+    let out = match k {
+        Some(k) => simplify(&i, k, ops),
+        None => i,
+    };
+    let mut planes = planes_of(cam, &out);
+    // Edge removal may reach past the screen; the viewport still clips there.
+    planes.extend(ExactWindow::view(cam).planes[1..].iter().copied());
+    Some((out, planes))
+}
+
+/// The conservative convex screen-space hull of a portal's projection (issue 14's window
+/// (d)): the convex hull of the projections of the portal's pieces (all of a merged portal's
+/// pieces at once with `M`, else piece by piece), intersected along the chain, with the
+/// k-gon windows' bounding-sphere pre-rejection. It contains every piece's exact window.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HullWindow<const M: bool> {
+    /// Counter-clockwise screen polygon (tangent coordinates).
+    pub poly: Vec<P2>,
+    /// Near plane, the planes through the eye and its edges, and the viewport's planes.
+    pub planes: Vec<Plane>,
+}
+
+impl<const M: bool> Window for HullWindow<M> {
+    const NAME: &'static str = if M { "hull" } else { "hull_pieces" };
+    const MERGED: bool = M;
+
+    fn view(cam: &Camera) -> Self {
+        let k = KgonWindow::<4>::view(cam);
+        HullWindow {
+            poly: k.poly,
+            planes: k.planes,
         }
-        let mut i = clip2(&h, &self.poly, ops);
-        if i.len() < 3 || area(&i) <= 0.0 {
-            // Only touching our polygon (rounding): keep the projection itself.
-            i = h;
-        }
-        let poly = simplify(&hull(&i, ops), K, ops);
-        let mut planes = planes_of(cam, &poly);
-        // Edge removal may reach past the screen; the viewport still clips there.
-        planes.extend(ExactWindow::view(cam).planes[1..].iter().copied());
-        Some(KgonWindow { poly, planes })
+    }
+
+    fn narrow(&self, cam: &Camera, portal: &[P3], ops: &mut Ops) -> Option<Self> {
+        self.narrow_portal(cam, &[portal], ops)
+    }
+
+    fn narrow_portal(&self, cam: &Camera, pieces: &[&[P3]], ops: &mut Ops) -> Option<Self> {
+        ops.narrows += 1;
+        narrow_screen(&self.poly, &self.planes, cam, pieces, None, ops)
+            .map(|(poly, planes)| HullWindow { poly, planes })
     }
 
     fn sees(&self, cam: &Camera, tri: &[P3; 3], ops: &mut Ops) -> bool {

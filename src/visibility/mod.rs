@@ -24,7 +24,10 @@
 
 pub mod bitset;
 pub mod cost;
+pub mod doors;
 pub mod kgon;
+pub mod mask;
+pub mod merged;
 pub mod prt;
 pub mod pvs;
 pub mod raycast;

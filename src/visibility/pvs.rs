@@ -13,7 +13,11 @@
 //!    the previous portal (the pass), in both roles (vis's `ClipToSeperators`): the planes
 //!    that put the source on one side and the pass on the other bound the antipenumbra.
 //!
-//! A branch ends when the clipped portal is empty. The set of cells is a superset of the
+//! 3. (with [`PvsSettings::clip_source`], the default) the source is clipped by the same
+//!    kind of separating planes between the previous pass and the new one, keeping the part
+//!    from which a line can still cross both (ericw-tools' `vis` at its default level).
+//!
+//! A branch ends when the clipped portal (or source) is empty. The set of cells is a superset of the
 //! exact answer (Teller's stabbing lines), since only the source and the pass clip the
 //! target. Pruning as in vis: a *base* visibility per directed portal first (a flood fill
 //! through the portals that lie partly in front of the source and that the source lies
@@ -64,6 +68,17 @@ pub struct PvsSettings {
     /// leaves `X` through the piece it last left it by, and every cell it reaches is still
     /// found through that sequence (see the module docs).
     pub revisit_cells: bool,
+    /// Also clip the *source* by the separating planes between the pass and the new portal
+    /// (both roles), as ericw-tools' `vis` does at its default test level: the part of the
+    /// source from which a line can still pass both. A smaller source narrows every later
+    /// separator, so branches die sooner. Off: only the target is clipped (the rule before,
+    /// kept to compare against).
+    #[serde(default = "yes")]
+    pub clip_source: bool,
+}
+
+fn yes() -> bool {
+    true
 }
 
 impl Default for PvsSettings {
@@ -73,6 +88,7 @@ impl Default for PvsSettings {
             base_only: false,
             max_steps_per_source: 5_000,
             revisit_cells: false,
+            clip_source: true,
         }
     }
 }
@@ -279,6 +295,8 @@ struct Flow<'a> {
     truncated: u64,
     /// Never re-enter a cell of the current chain (see [`PvsSettings::revisit_cells`]).
     no_reentry: bool,
+    /// [`PvsSettings::clip_source`].
+    clip_source: bool,
     cell_on_stack: Vec<bool>,
 }
 
@@ -338,6 +356,19 @@ impl Flow<'_> {
                     };
                     pass
                 }
+            };
+            // The part of the source that still sees the new pass through the previous one.
+            let source = match (&prev.pass, self.clip_source) {
+                (Some(prev_pass), true) => {
+                    let Some(source) = clip_to_separators(&pass, prev_pass, source, false, self.eps) else {
+                        continue;
+                    };
+                    let Some(source) = clip_to_separators(prev_pass, &pass, source, true, self.eps) else {
+                        continue;
+                    };
+                    source
+                }
+                _ => source,
             };
             {
                 let (prev_might, might) = self.mights.split_at_mut(lo);
@@ -522,6 +553,7 @@ fn compute_inner(graph: &PortalGraph, settings: &PvsSettings) -> Pvs {
             budget: settings.max_steps_per_source,
             truncated: 0,
             no_reentry: graph.convex_cells || !settings.revisit_cells,
+            clip_source: settings.clip_source,
             cell_on_stack: std::mem::take(&mut cell_on_stack),
         };
         if flow.mights.len() < words {

@@ -32,7 +32,8 @@
 
 use super::PortalGraph;
 use super::cost::CellPolygons;
-use super::kgon::KgonWindow;
+use super::kgon::{HullWindow, KgonWindow};
+use super::mask::MaskWindow;
 use crate::CellId;
 use crate::base::vec::{P3, cross, dot, norm, sub};
 use crate::complex::CellComplex;
@@ -65,6 +66,14 @@ pub struct WalkSettings {
     /// Roll of the second, tilted walkthrough that evaluations add (0: none).
     #[serde(default)]
     pub tilted_roll_deg: f64,
+    /// Width in pixels of the per-pixel portal masks ([`super::mask`]); the height follows
+    /// the aspect.
+    #[serde(default = "default_mask_width")]
+    pub mask_width: usize,
+}
+
+fn default_mask_width() -> usize {
+    256
 }
 
 impl Default for WalkSettings {
@@ -79,6 +88,7 @@ impl Default for WalkSettings {
             texture_depths: [0, 1],
             roll_deg: 0.0,
             tilted_roll_deg: 30.0,
+            mask_width: default_mask_width(),
         }
     }
 }
@@ -104,6 +114,8 @@ pub struct Camera {
     /// exact window only within this distance of its boundary (a wall sharing a door's
     /// edge) is not drawn; a conservative window counts what comes within it.
     pub tol: f64,
+    /// Resolution `[width, height]` of the per-pixel portal masks ([`super::mask`]).
+    pub mask_px: [usize; 2],
 }
 
 impl Camera {
@@ -128,7 +140,16 @@ impl Camera {
             tan_y: tan_x * aspect,
             near,
             tol: near * 1e-3,
+            mask_px: [256, mask_height(256, aspect)],
         }
+    }
+
+    /// The same camera with masks `width` pixels wide (at least 1).
+    pub fn with_mask_width(mut self, width: usize) -> Self {
+        let aspect = self.tan_y / self.tan_x;
+        let w = width.max(1);
+        self.mask_px = [w, mask_height(w, aspect)];
+        self
     }
 
     /// The same camera rolled by `deg` degrees about its view direction.
@@ -186,6 +207,11 @@ impl Camera {
     }
 }
 
+fn mask_height(width: usize, aspect: f64) -> usize {
+    let h = (width as f64 * aspect).round();
+    if h.is_finite() && h >= 1.0 { h as usize } else { 1 }
+}
+
 fn unit(v: P3) -> Option<P3> {
     let l = norm(&v);
     (l > 1e-12 && l.is_finite()).then(|| [v[0] / l, v[1] / l, v[2] / l])
@@ -217,6 +243,10 @@ pub struct Ops {
     pub sphere_rejects: u64,
     /// 2D work of the screen-polygon windows: hull, intersection and edge-removal steps.
     pub screen_ops: u64,
+    /// Mask windows: pixels spanned by the conservative rasters (portals and triangles).
+    pub mask_pixels: u64,
+    /// Mask windows: 64-pixel words read or combined (triangle tests, mask intersections).
+    pub mask_words: u64,
 }
 
 /// Keeps the part of `poly` inside every plane (`None` when nothing is left).
@@ -273,11 +303,23 @@ pub fn clip_tol(poly: &[P3], planes: &[Plane], tol: f64, ops: &mut Ops) -> Optio
 pub trait Window: Clone {
     /// Name in tables and CSV headers.
     const NAME: &'static str;
+    /// Whether the renderer narrows through a merged portal's pieces together, once per
+    /// portal ([`Window::narrow_portal`]), instead of piece by piece ([`Window::narrow`]).
+    const MERGED: bool = false;
     /// The whole view frustum.
     fn view(cam: &Camera) -> Self;
     /// The window narrowed through the portal polygon `portal` (world coordinates, already
     /// known to face away from the eye); `None` when the window does not see it.
     fn narrow(&self, cam: &Camera, portal: &[P3], ops: &mut Ops) -> Option<Self>;
+    /// The window narrowed through a whole merged portal: its pieces that face away from
+    /// the eye (at least one), as one surface. The default keeps the window unchanged for
+    /// several pieces (conservative); merged representations override it.
+    fn narrow_portal(&self, cam: &Camera, pieces: &[&[P3]], ops: &mut Ops) -> Option<Self> {
+        match pieces {
+            [one] => self.narrow(cam, one, ops),
+            _ => Some(self.clone()),
+        }
+    }
     /// Whether a triangle meets the window.
     fn sees(&self, cam: &Camera, tri: &[P3; 3], ops: &mut Ops) -> bool;
 }
@@ -602,9 +644,12 @@ pub struct Frame {
     /// Per window representation ([`REPS`]): triangles drawn.
     #[serde(default)]
     pub rep_tris: [u64; NREPS],
-    /// Portal pieces passed.
+    /// Windows passed: portal pieces (piece-by-piece representations) or merged portals.
     #[serde(default)]
     pub rep_portals: [u64; NREPS],
+    /// Cells drawn (entries, with repetitions through different windows).
+    #[serde(default)]
+    pub rep_cells: [u64; NREPS],
     /// Clip operations (polygon–plane clips, 3D and 2D).
     #[serde(default)]
     pub rep_clips: [u64; NREPS],
@@ -614,16 +659,22 @@ pub struct Frame {
 }
 
 /// Number of window representations compared per frame.
-pub const NREPS: usize = 5;
+pub const NREPS: usize = 9;
 
-/// Their names, in the order of [`Frame::rep_tris`]: exact polygon, screen rectangle, and
-/// the k-gon simplifications (k = 4, 6, 8).
+/// Their names, in the order of [`Frame::rep_tris`]: exact polygon, screen rectangle, the
+/// k-gon simplifications (k = 4, 6, 8) — all piece by piece — then the convex screen hull
+/// piece by piece and per merged portal, and the per-pixel mask piece by piece and per
+/// merged portal (the arbitrary portals of Lowe & Datta).
 pub const REPS: [&str; NREPS] = [
     ExactWindow::NAME,
     RectWindow::NAME,
     KgonWindow::<4>::NAME,
     KgonWindow::<6>::NAME,
     KgonWindow::<8>::NAME,
+    HullWindow::<false>::NAME,
+    HullWindow::<true>::NAME,
+    MaskWindow::<false>::NAME,
+    MaskWindow::<true>::NAME,
 ];
 
 /// One representation's summary over a walkthrough.
@@ -635,8 +686,12 @@ pub struct RepSummary {
     pub mean_triangles: f64,
     /// Largest per frame.
     pub max_triangles: u64,
-    /// Mean portal pieces passed per frame.
+    /// Mean windows passed per frame (portal pieces, or merged portals for the merged
+    /// representations).
     pub mean_portals: f64,
+    /// Mean cells drawn per frame (with repetitions).
+    #[serde(default)]
+    pub mean_cells: f64,
     /// Mean triangles beyond the exact window's per frame (overdraw against it).
     pub mean_overdraw: f64,
     /// Largest per frame.
@@ -791,23 +846,46 @@ impl Renderer<'_, '_> {
             }
         }
         self.on_chain[cell as usize] = true;
-        for k in 0..self.out[cell as usize].len() {
+        let n_out = self.out[cell as usize].len();
+        let mut k = 0;
+        while k < n_out {
             let (to, portal) = (self.out[cell as usize][k].0, self.out[cell as usize][k].1);
+            // A merged window takes all pieces of the portal (they are consecutive).
+            let mut end = k + 1;
+            if W::MERGED {
+                while end < n_out && self.out[cell as usize][end].1 == portal {
+                    end += 1;
+                }
+            }
+            let range = k..end;
+            k = end;
             if self.on_chain[to as usize] {
                 continue;
             }
             let next = {
-                let q = &self.out[cell as usize][k].2;
-                let nrm = crate::base::vec::fan_normal(q);
-                let nl = norm(&nrm);
-                let s = (dot(&nrm, &cam.eye) - dot(&nrm, &q[0])) / nl;
-                if s > self.eps {
-                    None // The eye is in front: it sees the piece's back.
-                } else if s >= -self.eps {
-                    // The eye stands on the piece's plane: open if it stands on the piece.
-                    on_polygon(q, &cam.eye, &nrm, self.eps).then(|| w.clone())
+                let mut open = false;
+                let mut away: Vec<&[P3]> = Vec::new();
+                for (_, _, q) in &self.out[cell as usize][range] {
+                    let nrm = crate::base::vec::fan_normal(q);
+                    let nl = norm(&nrm);
+                    let s = (dot(&nrm, &cam.eye) - dot(&nrm, &q[0])) / nl;
+                    if s > self.eps {
+                        // The eye is in front: it sees the piece's back.
+                    } else if s >= -self.eps {
+                        // The eye stands on the piece's plane: open if it stands on the piece.
+                        open |= on_polygon(q, &cam.eye, &nrm, self.eps);
+                    } else {
+                        away.push(q);
+                    }
+                }
+                if open {
+                    Some(w.clone())
+                } else if away.is_empty() {
+                    None
+                } else if W::MERGED {
+                    w.narrow_portal(cam, &away, ops)
                 } else {
-                    w.narrow(cam, q, ops)
+                    w.narrow(cam, away[0], ops)
                 }
             };
             let Some(next) = next else { continue };
@@ -843,6 +921,8 @@ fn add_ops(a: &mut Ops, b: &Ops) {
     a.vertices += b.vertices;
     a.sphere_rejects += b.sphere_rejects;
     a.screen_ops += b.screen_ops;
+    a.mask_pixels += b.mask_pixels;
+    a.mask_words += b.mask_words;
 }
 
 fn total_tris(m: &Model) -> usize {
@@ -910,7 +990,8 @@ pub fn cameras(scene: &Scene, settings: &WalkSettings) -> (Vec<(Camera, u32)>, f
             }
             last_dir = dir;
             let cam = Camera::looking(eye, dir, settings.up_axis, settings.fov_deg, settings.aspect, near)
-                .rolled(settings.roll_deg);
+                .rolled(settings.roll_deg)
+                .with_mask_width(settings.mask_width);
             cams.push((cam, path[i].cell));
         }
     }
@@ -925,6 +1006,14 @@ pub fn drawn<W: Window>(scene: &Scene, cam: &Camera, cell: u32) -> Vec<bool> {
     let mut ops = Ops::default();
     r.run::<W>(&base, cam, cell, None, &mut ops);
     r.stamp.iter().map(|&s| s == r.mark).collect()
+}
+
+/// One frame rendered with the window `W`: counts, operations, seconds.
+fn timed<W: Window>(r: &mut Renderer, base: &[usize], cam: &Camera, cell: u32) -> (Count, Ops, f64) {
+    let t = Instant::now();
+    let mut o = Ops::default();
+    let c = r.run::<W>(base, cam, cell, None, &mut o);
+    (c, o, t.elapsed().as_secs_f64())
 }
 
 /// Runs the walkthrough: frames along [`camera_path`], each rendered five ways.
@@ -965,9 +1054,11 @@ pub fn walkthrough(scene: &Scene, settings: &WalkSettings) -> (WalkReport, Vec<F
         let mut rp = [0u64; NREPS];
         let mut rc = [0u64; NREPS];
         let mut rv = [0u64; NREPS];
+        let mut rn = [0u64; NREPS];
         let mut one = |k: usize, c: Count, o: Ops, secs: f64, sums: &mut [(Ops, f64); NREPS]| {
             rt[k] = c.tris;
             rp[k] = c.portals;
+            rn[k] = c.cells;
             rc[k] = o.plane_clips;
             rv[k] = o.vertices;
             add_ops(&mut sums[k].0, &o);
@@ -975,18 +1066,20 @@ pub fn walkthrough(scene: &Scene, settings: &WalkSettings) -> (WalkReport, Vec<F
         };
         one(0, exact, ops_exact, (t2 - t1).as_secs_f64(), &mut sums);
         one(1, rect, ops_rect, (t3 - t2).as_secs_f64(), &mut sums);
-        let t = Instant::now();
-        let mut o = Ops::default();
-        let c = r.run::<KgonWindow<4>>(&base, cam, *cell, None, &mut o);
-        one(2, c, o, t.elapsed().as_secs_f64(), &mut sums);
-        let t = Instant::now();
-        let mut o = Ops::default();
-        let c = r.run::<KgonWindow<6>>(&base, cam, *cell, None, &mut o);
-        one(3, c, o, t.elapsed().as_secs_f64(), &mut sums);
-        let t = Instant::now();
-        let mut o = Ops::default();
-        let c = r.run::<KgonWindow<8>>(&base, cam, *cell, None, &mut o);
-        one(4, c, o, t.elapsed().as_secs_f64(), &mut sums);
+        let (c, o, t) = timed::<KgonWindow<4>>(&mut r, &base, cam, *cell);
+        one(2, c, o, t, &mut sums);
+        let (c, o, t) = timed::<KgonWindow<6>>(&mut r, &base, cam, *cell);
+        one(3, c, o, t, &mut sums);
+        let (c, o, t) = timed::<KgonWindow<8>>(&mut r, &base, cam, *cell);
+        one(4, c, o, t, &mut sums);
+        let (c, o, t) = timed::<HullWindow<false>>(&mut r, &base, cam, *cell);
+        one(5, c, o, t, &mut sums);
+        let (c, o, t) = timed::<HullWindow<true>>(&mut r, &base, cam, *cell);
+        one(6, c, o, t, &mut sums);
+        let (c, o, t) = timed::<MaskWindow<false>>(&mut r, &base, cam, *cell);
+        one(7, c, o, t, &mut sums);
+        let (c, o, t) = timed::<MaskWindow<true>>(&mut r, &base, cam, *cell);
+        one(8, c, o, t, &mut sums);
         frames.push(Frame {
             frame: i,
             eye: cam.eye,
@@ -1003,6 +1096,7 @@ pub fn walkthrough(scene: &Scene, settings: &WalkSettings) -> (WalkReport, Vec<F
             rep_portals: rp,
             rep_clips: rc,
             rep_vertices: rv,
+            rep_cells: rn,
         });
     }
     let nf = frames.len().max(1) as f64;
@@ -1026,6 +1120,7 @@ pub fn walkthrough(scene: &Scene, settings: &WalkSettings) -> (WalkReport, Vec<F
                 s.mean_triangles += f.rep_tris[k] as f64 / nf;
                 s.max_triangles = s.max_triangles.max(f.rep_tris[k]);
                 s.mean_portals += f.rep_portals[k] as f64 / nf;
+                s.mean_cells += f.rep_cells[k] as f64 / nf;
                 s.mean_overdraw += over as f64 / nf;
                 s.max_overdraw = s.max_overdraw.max(over);
                 s.frames_below_exact += (f.rep_tris[k] < f.rep_tris[0]) as usize;
