@@ -175,7 +175,11 @@ fn merged_shards_equal_an_unsharded_run() {
     }
     // The failures are in the summary, in definition order.
     let csv = String::from_utf8(a["summary.csv"].clone()).unwrap();
-    let status: Vec<&str> = csv.lines().skip(1).map(|l| l.split(',').nth(1).unwrap_or("")).collect();
+    let status: Vec<&str> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(1).unwrap_or("").trim_start_matches('"'))
+        .collect();
     assert!(status[4].starts_with("failed:"), "{status:?}");
     assert!(status[5].starts_with("failed:"), "{status:?}");
     assert!(sharded.join("timings.json").is_file());
