@@ -37,7 +37,10 @@ fn main() {
             from: a.parse().unwrap(),
             ratio: b.parse().unwrap(),
             ball: c.parse().unwrap(),
-            dominance: std::env::var("DOMINANCE").ok().and_then(|d| d.parse().ok()).unwrap_or(0.0),
+            dominance: std::env::var("DOMINANCE")
+                .ok()
+                .and_then(|d| d.parse().ok())
+                .unwrap_or(0.0),
             slices: std::env::var("SLICES").ok().and_then(|d| d.parse().ok()).unwrap_or(0),
         }),
         _ => None,
@@ -250,8 +253,14 @@ fn final_cells(
         .filter(|&i| rooms[i].is_empty() && with_rooms.contains(&find(&mut reg, i)))
         .count();
     let maxpeak = peak.iter().copied().fold(0.0, f64::max);
-    let roompeak = (0..part.len()).filter(|&i| !rooms[i].is_empty()).map(|i| peak[i]).fold(f64::MAX, f64::min);
-    let junkpeak = (0..part.len()).filter(|&i| rooms[i].is_empty()).map(|i| peak[i]).fold(0.0, f64::max);
+    let roompeak = (0..part.len())
+        .filter(|&i| !rooms[i].is_empty())
+        .map(|i| peak[i])
+        .fold(f64::MAX, f64::min);
+    let junkpeak = (0..part.len())
+        .filter(|&i| rooms[i].is_empty())
+        .map(|i| peak[i])
+        .fold(0.0, f64::max);
     println!(
         "   regions {} with rooms {} | junk cells in room regions {} | max peak {:.3} min room-cell peak {:.3} max junk peak {:.3}",
         all.len(),
@@ -269,14 +278,24 @@ fn final_cells(
         let mut nb = 0;
         for mp in &ports {
             let (x, y) = (part.cell_of(mp.cells[0]).unwrap(), part.cell_of(mp.cells[1]).unwrap());
-            let o = if x == i { y } else if y == i { x } else { continue };
+            let o = if x == i {
+                y
+            } else if y == i {
+                x
+            } else {
+                continue;
+            };
             nb += 1;
             if best.is_none_or(|(a, _)| mp.area > a) {
                 best = Some((mp.area, o));
             }
         }
         let (ba, bo) = best.map_or((0.0, usize::MAX), |b| b);
-        let (op, ov) = if bo == usize::MAX { (0.0, 0.0) } else { (peak[bo], part.cells[bo].volume) };
+        let (op, ov) = if bo == usize::MAX {
+            (0.0, 0.0)
+        } else {
+            (peak[bo], part.cells[bo].volume)
+        };
         println!(
             "   cell {:3} pieces {:5} vol {:9.3} peak {:.3} rooms {:?} nbrs {} | largest portal {:.3} to {} peak {:.3} vol {:.3} | peak/nb {:.3} vol/nb {:.4}",
             i,

@@ -412,7 +412,6 @@ impl ApertureGate {
     fn holds_ball(&self, peak: f64, volume: f64) -> bool {
         volume >= self.ball * 4.0 / 3.0 * std::f64::consts::PI * peak.powi(3)
     }
-
 }
 
 /// One pair the merge looked at (a collapse, or a pair the gate kept apart), for
@@ -493,7 +492,10 @@ fn sliced_section(cx: &CellComplex, c: &Comp, frame: &Frame, k: usize) -> f64 {
     (0..k)
         .map(|i| {
             let t = lo + (hi - lo) * (i as f64 + 0.5) / k as f64;
-            c.members.iter().map(|&m| cut_area(&cx.cells[m as usize].poly, frame, t)).sum::<f64>()
+            c.members
+                .iter()
+                .map(|&m| cut_area(&cx.cells[m as usize].poly, frame, t))
+                .sum::<f64>()
         })
         .fold(0.0, f64::max)
 }
@@ -935,13 +937,7 @@ mod tests {
             ..Comp::default()
         };
         for &(j, area) in links {
-            c.links.insert(
-                j,
-                Link {
-                    area,
-                    ..Link::EMPTY
-                },
-            );
+            c.links.insert(j, Link { area, ..Link::EMPTY });
         }
         c
     }
