@@ -486,7 +486,7 @@ fn sliced_section(cx: &CellComplex, c: &Comp, frame: &Frame, k: usize) -> f64 {
             }
         }
     }
-    if !(hi > lo) || k == 0 {
+    if hi.partial_cmp(&lo) != Some(Ordering::Greater) || k == 0 {
         return 0.0;
     }
     (0..k)
