@@ -242,10 +242,10 @@ fn final_cells(
     }
     let mut with_rooms = BTreeSet::new();
     let mut all = BTreeSet::new();
-    for i in 0..part.len() {
+    for (i, held) in rooms.iter().enumerate() {
         let r = find(&mut reg, i);
         all.insert(r);
-        if !rooms[i].is_empty() {
+        if !held.is_empty() {
             with_rooms.insert(r);
         }
     }
