@@ -2,7 +2,11 @@
 //! joins two true rooms (and the intra-room pairs of high persistence), with persistence,
 //! portal area and the components' projected sections.
 //!
-//! `cargo run --release --example diag_rooms -- [tune|report] [family,..] [gate_from gate_ratio]`
+//! `cargo run --release --example diag_rooms -- [tune|report] [family,..] [gate_from gate_ratio gate_ball]`
+//!
+//! Environment: `SCORE=1` scores the final partition at `RATIO` (default 1.8) instead of
+//! tracing; `FINAL=1` (or `all`) describes its final cells; `SPLITS=1` the split rooms;
+//! `DOMINANCE` and `SLICES` set the gate's dominance ratio and section slices.
 
 use portalfind::decimate::clearance::{ApertureGate, trace};
 use portalfind::decimate::{HeuristicKind, Settings, StopRule};
@@ -33,6 +37,11 @@ fn main() {
             from: a.parse().unwrap(),
             ratio: b.parse().unwrap(),
             ball: c.parse().unwrap(),
+            dominance: std::env::var("DOMINANCE")
+                .ok()
+                .and_then(|d| d.parse().ok())
+                .unwrap_or(0.0),
+            slices: std::env::var("SLICES").ok().and_then(|d| d.parse().ok()).unwrap_or(0),
         }),
         _ => None,
     };
@@ -65,6 +74,9 @@ fn main() {
                 a.recall_micro,
                 steps.iter().filter(|s| s.kept).count()
             );
+            if std::env::var("FINAL").is_ok() {
+                final_cells(&cx, &dec.partition, &case.truth);
+            }
             if std::env::var("SPLITS").is_ok() {
                 let cells: Vec<BTreeSet<usize>> = case
                     .truth
@@ -196,5 +208,108 @@ fn main() {
     }
     if score_only {
         println!("TOTAL isolated {iso}/{tot}");
+    }
+}
+
+/// Every final cell: volume, peak (largest clearance sample), rooms whose samples it holds,
+/// and its largest-portal neighbour's peak and volume.
+fn final_cells(
+    cx: &portalfind::complex::CellComplex,
+    part: &portalfind::decimate::Partition,
+    truth: &portalfind::suite::SuiteTruth,
+) {
+    let field = portalfind::decimate::clearance::CellField::new(cx);
+    let mut rooms: Vec<BTreeSet<usize>> = vec![BTreeSet::new(); part.len()];
+    for (i, r) in truth.rooms.iter().enumerate() {
+        for c in locate_in_complex(cx, &r.samples).into_iter().flatten() {
+            if let Some(f) = part.cell_of(c) {
+                rooms[f].insert(i);
+            }
+        }
+    }
+    let peak: Vec<f64> = part
+        .cells
+        .iter()
+        .map(|m| m.pieces.iter().map(|p| field.value[p.idx()]).fold(0.0, f64::max))
+        .collect();
+    let ports = part.portals(cx);
+    // Regions of the final cell graph, and which hold rooms.
+    let mut reg: Vec<usize> = (0..part.len()).collect();
+    for mp in &ports {
+        let (x, y) = (part.cell_of(mp.cells[0]).unwrap(), part.cell_of(mp.cells[1]).unwrap());
+        let (rx, ry) = (find(&mut reg, x), find(&mut reg, y));
+        reg[rx] = ry;
+    }
+    let mut with_rooms = BTreeSet::new();
+    let mut all = BTreeSet::new();
+    for (i, held) in rooms.iter().enumerate() {
+        let r = find(&mut reg, i);
+        all.insert(r);
+        if !held.is_empty() {
+            with_rooms.insert(r);
+        }
+    }
+    let junk_in_room_regions = (0..part.len())
+        .filter(|&i| rooms[i].is_empty() && with_rooms.contains(&find(&mut reg, i)))
+        .count();
+    let maxpeak = peak.iter().copied().fold(0.0, f64::max);
+    let roompeak = (0..part.len())
+        .filter(|&i| !rooms[i].is_empty())
+        .map(|i| peak[i])
+        .fold(f64::MAX, f64::min);
+    let junkpeak = (0..part.len())
+        .filter(|&i| rooms[i].is_empty())
+        .map(|i| peak[i])
+        .fold(0.0, f64::max);
+    println!(
+        "   regions {} with rooms {} | junk cells in room regions {} | max peak {:.3} min room-cell peak {:.3} max junk peak {:.3}",
+        all.len(),
+        with_rooms.len(),
+        junk_in_room_regions,
+        maxpeak,
+        roompeak,
+        junkpeak
+    );
+    if std::env::var("FINAL").as_deref() != Ok("all") {
+        return;
+    }
+    for (i, m) in part.cells.iter().enumerate() {
+        let mut best: Option<(f64, usize)> = None;
+        let mut nb = 0;
+        for mp in &ports {
+            let (x, y) = (part.cell_of(mp.cells[0]).unwrap(), part.cell_of(mp.cells[1]).unwrap());
+            let o = if x == i {
+                y
+            } else if y == i {
+                x
+            } else {
+                continue;
+            };
+            nb += 1;
+            if best.is_none_or(|(a, _)| mp.area > a) {
+                best = Some((mp.area, o));
+            }
+        }
+        let (ba, bo) = best.map_or((0.0, usize::MAX), |b| b);
+        let (op, ov) = if bo == usize::MAX {
+            (0.0, 0.0)
+        } else {
+            (peak[bo], part.cells[bo].volume)
+        };
+        println!(
+            "   cell {:3} pieces {:5} vol {:9.3} peak {:.3} rooms {:?} nbrs {} | largest portal {:.3} to {} peak {:.3} vol {:.3} | peak/nb {:.3} vol/nb {:.4}",
+            i,
+            m.pieces.len(),
+            m.volume,
+            peak[i],
+            rooms[i],
+            nb,
+            ba,
+            bo,
+            op,
+            ov,
+            peak[i] / op,
+            m.volume / ov
+        );
     }
 }

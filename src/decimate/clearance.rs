@@ -53,7 +53,17 @@
 //! ([`CellField::refined_passage`] on every portal between them: more, still real, paths;
 //! the pair is weighed again); then the pair is kept apart if the smaller of the two
 //! components' projected sections on the portal plane (2D hull of the 3D hull) is at least
-//! `ratio` times the portal area. A kept pair is weighed again when either side grows.
+//! `ratio` times the portal area, and (with `slices`) so is the smaller of their largest
+//! cuts parallel to the portal plane: a long component cut obliquely (a corridor of a
+//! few large faces) projects far wider than it is, its parallel cuts do not. A kept pair
+//! is weighed again when either side grows.
+//!
+//! **Clean-up** (`dominance`). Leaks (noise, marching-cubes caverns) open the solid and
+//! the exterior to the merge: slabs and pockets whose largest empty ball is tiny next to
+//! the rooms', kept apart by the same persistence that keeps rooms apart. When the merge
+//! stops, a component whose peak is below `dominance` times a neighbour's is absorbed into
+//! its dominating neighbour across the largest portal, lowest peak first. A ratio of
+//! radii, so still scale-free.
 //! Both tests are ratios (areas, volumes), so the gate is scale-free. With a `cells:N`
 //! stop the gate is off (that stop asks for N cells).
 //!
@@ -83,11 +93,15 @@ pub const DEFAULT_RATIO: f64 = 1.8;
 
 /// The `aperture` heuristic's gate (chosen on the tune half of the suite, `examples/diag_rooms.rs`):
 /// a pair of persistence ≥ 1.1 whose components each hold twice their largest empty ball
-/// is kept apart when the smaller projected section is at least 1.5 times the opening.
+/// is kept apart when the smaller section is at least 1.5 times the opening (projected,
+/// then confirmed by the largest of 5 parallel cuts); at the end, a component whose peak
+/// is below 0.15 of a neighbour's is absorbed into it.
 pub const DEFAULT_APERTURE: ApertureGate = ApertureGate {
     from: 1.1,
     ratio: 1.5,
     ball: 2.0,
+    dominance: 0.15,
+    slices: 5,
 };
 
 /// The clearance field sampled on the cell complex (see the module docs).
@@ -523,6 +537,22 @@ pub struct ApertureGate {
     /// volume of its largest empty ball (radius = its peak): a component that cannot hold
     /// its own inscribed ball is a piece of the region around its peak, not yet a room.
     pub ball: f64,
+    /// Dominance ratio of the final clean-up pass (0: off). When the merge stops, a
+    /// component whose peak is below `dominance` times a neighbour's is absorbed into
+    /// the dominating neighbour across the largest portal area, lowest peak first, until
+    /// none is left: a component whose largest empty ball is that much smaller than its
+    /// neighbour's is a pocket, sliver or slab of leaked solid, not a room of its own. A
+    /// ratio of two radii: scale-free. The pass runs after the merge (whose rooms are
+    /// then whole: during the merge a room's fragments have low peaks too), and its steps
+    /// are recorded after the merge's, with the peak ratio as their weight.
+    pub dominance: f64,
+    /// Sections by slicing (0: by projection): when the projected sections would keep a
+    /// pair apart, each side's section is taken again as the largest of `slices` cuts of
+    /// the component parallel to the portal plane, evenly spaced across its extent along
+    /// the normal (a long component cut obliquely projects far wider than it is; its
+    /// parallel cuts do not). A cut lies inside its projection, so slicing only ever
+    /// joins more.
+    pub slices: usize,
 }
 
 impl ApertureGate {
@@ -607,6 +637,62 @@ fn section(cx: &CellComplex, c: &mut Comp, frame: &Frame) -> f64 {
         Hull3::new(&pts)
     });
     let a = polygon_area(&hull2(hull.pts.iter().map(|p| frame.project(p)).collect::<Vec<P2>>()));
+    if a.is_finite() { a.max(0.0) } else { 0.0 }
+}
+
+/// The largest of `k` cuts of a component by planes parallel to `frame`'s, at heights
+/// `(i + 1/2) / k` of its extent along the normal (`i = 0..k`): the summed areas of the
+/// members' convex cuts (the members are disjoint, so the sum is the cut's area).
+fn sliced_section(cx: &CellComplex, c: &Comp, frame: &Frame, k: usize) -> f64 {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for &m in &c.members {
+        for f in &cx.cells[m as usize].poly.faces {
+            for v in &f.verts {
+                let h = height(frame, v);
+                lo = lo.min(h);
+                hi = hi.max(h);
+            }
+        }
+    }
+    if hi.partial_cmp(&lo) != Some(Ordering::Greater) || k == 0 {
+        return 0.0;
+    }
+    (0..k)
+        .map(|i| {
+            let t = lo + (hi - lo) * (i as f64 + 0.5) / k as f64;
+            c.members
+                .iter()
+                .map(|&m| cut_area(&cx.cells[m as usize].poly, frame, t))
+                .sum::<f64>()
+        })
+        .fold(0.0, f64::max)
+}
+
+/// Signed height of `p` above `frame`'s plane.
+fn height(frame: &Frame, p: &[f64; 3]) -> f64 {
+    let d = [p[0] - frame.o[0], p[1] - frame.o[1], p[2] - frame.o[2]];
+    d[0] * frame.n[0] + d[1] * frame.n[1] + d[2] * frame.n[2]
+}
+
+/// The area of the cut of a convex polyhedron by the plane at height `t` above `frame`'s
+/// (0 when the plane misses it): the 2D hull of its edges' crossings.
+fn cut_area(poly: &crate::geom::ConvexPolyhedron, frame: &Frame, t: f64) -> f64 {
+    let mut pts: Vec<P2> = Vec::new();
+    for f in &poly.faces {
+        let n = f.verts.len();
+        for j in 0..n {
+            let (p, q) = (f.verts[j], f.verts[(j + 1) % n]);
+            let (hp, hq) = (height(frame, &p) - t, height(frame, &q) - t);
+            if (hp < 0.0) != (hq < 0.0) {
+                let s = hp / (hp - hq);
+                pts.push(frame.project(&lerp(&p, &q, s)));
+            }
+        }
+    }
+    if pts.len() < 3 {
+        return 0.0;
+    }
+    let a = polygon_area(&hull2(pts));
     if a.is_finite() { a.max(0.0) } else { 0.0 }
 }
 
@@ -783,9 +869,21 @@ fn run_inner(
         }
         if gated.is_some() || trace.is_some() {
             let frame = l.frame();
-            let pa = section(cx, &mut comps[a], &frame);
-            let pb = section(cx, &mut comps[b], &frame);
-            let kept = gated.is_some_and(|g| pa.min(pb) >= g.ratio * l.area);
+            let mut pa = section(cx, &mut comps[a], &frame);
+            let mut pb = section(cx, &mut comps[b], &frame);
+            let mut kept = gated.is_some_and(|g| pa.min(pb) >= g.ratio * l.area);
+            if let Some(g) = gated.filter(|g| kept && g.slices > 0) {
+                // Cuts parallel to the portal, the smaller projection first.
+                let (first, second) = if pa <= pb { (a, b) } else { (b, a) };
+                let s1 = sliced_section(cx, &comps[first], &frame, g.slices);
+                let s2 = if s1 >= g.ratio * l.area {
+                    sliced_section(cx, &comps[second], &frame, g.slices)
+                } else {
+                    f64::INFINITY
+                };
+                (pa, pb) = if first == a { (s1, s2) } else { (s2, s1) };
+                kept = pa.min(pb) >= g.ratio * l.area;
+            }
             if let Some(t) = trace.as_deref_mut() {
                 t.push(TraceStep {
                     a: CellId(e.a),
@@ -874,6 +972,9 @@ fn run_inner(
             });
         }
     };
+    if let Some(g) = gate.filter(|g| g.dominance > 0.0) {
+        absorb_dominated(&mut comps, g.dominance, &mut steps, &mut cells, progress);
+    }
     stats.steps = steps.len();
     stats.collapse_seconds = t1.elapsed().as_secs_f64();
     let partition = Decimation::replay(cx, &steps).expect("the merge records live pairs, lower id first");
@@ -883,6 +984,74 @@ fn run_inner(
         stop,
         stats,
         partition,
+    }
+}
+
+/// The clean-up pass (see [`ApertureGate::dominance`]): while some live component's peak
+/// is below `ratio` times a neighbour's, the lowest such component (ties: lowest id) is
+/// absorbed into its dominating neighbour across the largest portal area (ties: lowest
+/// id); each absorption is recorded as a step (survivor: the lower id) whose weight is
+/// the peak ratio.
+fn absorb_dominated(
+    comps: &mut [Comp],
+    ratio: f64,
+    steps: &mut Vec<Step>,
+    cells: &mut usize,
+    progress: &mut dyn FnMut(usize, usize),
+) {
+    loop {
+        // (peak, id) of the lowest dominated component, and its chosen neighbour.
+        let mut pick: Option<(f64, u32, u32, f64)> = None;
+        for (i, c) in comps.iter().enumerate() {
+            if !c.alive || pick.is_some_and(|(p, ..)| c.peak > p) {
+                continue;
+            }
+            let mut best: Option<(f64, u32)> = None;
+            for (&j, l) in &c.links {
+                let o = &comps[j as usize];
+                if o.alive && o.peak > 0.0 && c.peak < ratio * o.peak && best.is_none_or(|(a, _)| l.area > a) {
+                    best = Some((l.area, j));
+                }
+            }
+            if let Some((_, j)) = best
+                && pick.is_none_or(|(p, ..)| c.peak < p)
+            {
+                pick = Some((c.peak, i as u32, j, c.peak / comps[j as usize].peak));
+            }
+        }
+        let Some((_, x, y, w)) = pick else {
+            return;
+        };
+        let (a, b) = (x.min(y), x.max(y));
+        let l = comps[a as usize].links[&b];
+        let cb = std::mem::take(&mut comps[b as usize]);
+        let mut ca = std::mem::take(&mut comps[a as usize]);
+        ca.links.remove(&b);
+        for (&k, lk) in &cb.links {
+            if k == a {
+                continue;
+            }
+            let m = &mut comps[k as usize].links;
+            m.remove(&b);
+            let entry = ca.links.entry(k).or_insert(Link::EMPTY);
+            *entry = entry.fuse(lk);
+            m.insert(a, entry.reversed());
+        }
+        ca.peak = ca.peak.max(cb.peak);
+        ca.volume += cb.volume;
+        ca.pieces += cb.pieces;
+        ca.alive = true;
+        comps[a as usize] = ca;
+        *cells -= 1;
+        steps.push(Step {
+            a: CellId(a),
+            b: CellId(b),
+            weight: w,
+            cells_remaining: *cells,
+            portal_area: l.area,
+            projected: [0.0, 0.0],
+        });
+        progress(steps.len(), *cells);
     }
 }
 
@@ -1091,5 +1260,60 @@ mod tests {
         assert_eq!(bits(&one.value), bits(&three.value));
         assert_eq!(bits(&one.passage), bits(&three.passage));
         assert_eq!(one.best, three.best);
+    }
+
+    use crate::geom::ConvexPolyhedron;
+
+    #[test]
+    fn cut_area_of_a_box_is_its_section_at_any_height_and_zero_outside() {
+        let b = ConvexPolyhedron::cuboid(&[0.0, 0.0, 0.0], &[4.0, 2.0, 1.0]);
+        let along_x = Frame::new([1.0, 0.0, 0.0], [0.0; 3]).unwrap();
+        for t in [0.5, 2.0, 3.9] {
+            assert!((cut_area(&b, &along_x, t) - 2.0).abs() < 1e-12, "t = {t}");
+        }
+        assert_eq!(cut_area(&b, &along_x, 4.5), 0.0);
+        assert_eq!(cut_area(&b, &along_x, -0.5), 0.0);
+        // An oblique cut of the long box is wider than its section (1/cos 45°), and far
+        // smaller than the box's projection on that plane.
+        let d = std::f64::consts::FRAC_1_SQRT_2;
+        let oblique = Frame::new([d, d, 0.0], [0.0; 3]).unwrap();
+        let a = cut_area(&b, &oblique, 2.0 * d);
+        assert!((a - 2.0 * std::f64::consts::SQRT_2).abs() < 1e-9, "{a}");
+    }
+
+    fn comp(peak: f64, links: &[(u32, f64)]) -> Comp {
+        let mut c = Comp {
+            alive: true,
+            peak,
+            volume: 1.0,
+            pieces: 1,
+            ..Comp::default()
+        };
+        for &(j, area) in links {
+            c.links.insert(j, Link { area, ..Link::EMPTY });
+        }
+        c
+    }
+
+    #[test]
+    fn clean_up_absorbs_dominated_components_lowest_first_across_the_largest_portal() {
+        // 0 and 1 are rooms (peaks 1.0 and 0.9); 2 (peak 0.1) touches both, with the larger
+        // portal towards 1; 3 (peak 0.01) touches only 2.
+        let mut comps = vec![
+            comp(1.0, &[(1, 1.0), (2, 0.5)]),
+            comp(0.9, &[(0, 1.0), (2, 2.0)]),
+            comp(0.1, &[(0, 0.5), (1, 2.0), (3, 0.3)]),
+            comp(0.01, &[(2, 0.3)]),
+        ];
+        let (mut steps, mut cells) = (Vec::new(), 4);
+        absorb_dominated(&mut comps, 0.15, &mut steps, &mut cells, &mut |_, _| {});
+        let pairs: Vec<(u32, u32)> = steps.iter().map(|s| (s.a.0, s.b.0)).collect();
+        // 3 first (lowest peak; its only neighbour 2 dominates it), then 2 into 1.
+        assert_eq!(pairs, vec![(2, 3), (1, 2)]);
+        assert_eq!(cells, 2);
+        assert!(comps[0].alive && comps[1].alive && !comps[2].alive && !comps[3].alive);
+        assert!((steps[0].weight - 0.1).abs() < 1e-12);
+        // The rooms are not dominated (0.9 > 0.15 · 1.0): both stay.
+        assert_eq!(comps[1].links.keys().copied().collect::<Vec<_>>(), vec![0]);
     }
 }
