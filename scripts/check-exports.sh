@@ -9,7 +9,8 @@
 #   PRT1  header and limits checked here; re-read and checked against qbsp's e1m1.prt
 #         conventions by `cargo test --test exports`
 #   Blender (optional): if `blender` is on PATH, imports cells.obj and cells.glb headless and
-#         counts the Cell_/Portal_ and Room_ objects
+#         counts the Cell_/Portal_ and Room_ objects (the glTF importer needs python3-numpy;
+#         no counts printed is a failure)
 #   HTML  scripts/check-viewer.sh: viewer.html in headless Chromium (slider, click,
 #         screenshots, no console errors); SKIP_VIEWER=1 skips it
 #
@@ -135,13 +136,23 @@ if command -v blender >/dev/null; then
     if [ "$f" = cells.obj ]; then imp="bpy.ops.wm.obj_import(filepath='$out/$f')"; else imp="bpy.ops.import_scene.gltf(filepath='$out/$f')"; fi
     blender -b --factory-startup --python-expr "
 import bpy
+try:  # Debian's Blender 3.4 glTF importer still uses np.bool, which NumPy 1.24 removed
+    import numpy
+    if not hasattr(numpy, 'bool'):
+        numpy.bool = bool
+except ImportError:
+    pass
 bpy.ops.wm.read_factory_settings(use_empty=True)
 $imp
 names = [o.name for o in bpy.data.objects]
 print('BLENDER', sum(n.startswith('Cell_') for n in names), 'Cell_,', sum(n.endswith('-room') for n in names),
       '-room,', sum('Portal_' in n for n in names), 'Portal_ objects')
 " >"$work/blender-$f.txt" 2>&1 || true
-    pass "blender $f: $(grep '^BLENDER' "$work/blender-$f.txt" || echo 'no result; see '"$work/blender-$f.txt")"
+    if grep -q '^BLENDER' "$work/blender-$f.txt"; then
+      pass "blender $f: $(grep '^BLENDER' "$work/blender-$f.txt")"
+    else
+      bad "blender $f: Blender printed no object counts (import failed?); see $work/blender-$f.txt"
+    fi
   done
 else
   echo "SKIP  blender not installed (optional: apt-get install blender)"
