@@ -482,8 +482,12 @@ fn compute_inner(graph: &PortalGraph, settings: &PvsSettings) -> Pvs {
     // Base visibility: flood through portals partly in front of the source that the source
     // lies partly behind.
     let t0 = Instant::now();
+    // Conservative in doubt, as `chop` is: a portal within `eps` of the source's plane (or a
+    // source within `eps` of the target's) is kept. With strict `> eps` / `< -eps`, two
+    // nearly coplanar overlapping portals (a crack cell on a folded wall of e1m1, refined /
+    // bbox at cells:300) dropped the room behind: 418 false invisibles of 307,200 rays.
     let front_of = |p: &DPortal, t: &DPortal| -> bool {
-        t.poly.iter().any(|v| dot(&p.n, v) - p.d > eps) && p.poly.iter().any(|v| dot(&t.n, v) - t.d < -eps)
+        t.poly.iter().any(|v| dot(&p.n, v) - p.d > -eps) && p.poly.iter().any(|v| dot(&t.n, v) - t.d < eps)
     };
     let mut base = Vec::with_capacity(dp.len());
     let mut stack = Vec::new();
