@@ -460,7 +460,9 @@ fn build_cells_unsealed(
 
 /// A finished run.
 pub struct Run {
-    /// The cell complex.
+    /// The cell complex, its inactive geometry released
+    /// ([`CellComplex::release_inactive`]: only active cells, the patches they border and
+    /// the portals keep their polygons).
     pub cx: CellComplex,
     /// Statistics of the subdivision.
     pub subdivision_stats: SubdivisionStats,
@@ -522,6 +524,9 @@ fn run_model_inner(
     stages.extend(cells.cx.stats.timings.iter().cloned());
     let mut memory = std::mem::take(&mut cells.memory);
     sample_peak(&mut memory, "cell complex");
+    // Checked: the geometry of inactive cells and unused patches is not read again, and
+    // the decimation's memory reuses it.
+    cells.cx.release_inactive();
     let mut report = |steps: usize, left: usize| {
         progress(Progress {
             stage: Stage::Decimate { cells: left },

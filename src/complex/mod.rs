@@ -252,6 +252,47 @@ impl CellComplex {
         }
     }
 
+    /// Frees the geometry that only the build needed, once it is done and checked: the
+    /// polyhedra of cells that are not active (split, or removed as exterior — about a
+    /// third of the tetrahedra of a closed building), the polygons and occluders of dead
+    /// (replaced) patches, and the polygons of live patches with no active cell on either
+    /// side. Kept: every id, flag and count, the live patches' cells and occluders (the
+    /// clearance field is over all of them), the portals, leaks, and everything about
+    /// active cells — so the decimation and the outputs, which read only active cells,
+    /// their patches and the portals, do not change (`tests/release.rs`). Afterwards the
+    /// whole-complex checks ([`CellComplex::validate`]'s volume sum) no longer apply: the
+    /// pipeline calls this after its checks, before the decimation, so that the
+    /// decimation's memory reuses what the removed cells held. Returns the number of
+    /// cells and patches whose geometry was freed.
+    pub fn release_inactive(&mut self) -> (usize, usize) {
+        let (mut cells, mut patches) = (0, 0);
+        for c in self.cells.iter_mut().filter(|c| !c.active()) {
+            if !c.poly.faces.is_empty() {
+                c.poly = ConvexPolyhedron::from_faces(Vec::new(), Vec::new());
+                cells += 1;
+            }
+        }
+        let active = |c: CellId| c != HULL && self.cells[c.idx()].active();
+        let release: Vec<(bool, bool)> = self
+            .patches
+            .iter()
+            .map(|p| (!p.alive, !p.alive || !(active(p.cells[0]) || active(p.cells[1]))))
+            .collect();
+        for (p, (dead, unused)) in self.patches.iter_mut().zip(release) {
+            if unused && !p.polygon.verts.is_empty() {
+                p.polygon = ConvexPolygon::new(Vec::new());
+                patches += 1;
+            }
+            if dead {
+                p.occluders = Vec::new();
+            }
+        }
+        self.cells.shrink_to_fit();
+        self.patches.shrink_to_fit();
+        self.portals.shrink_to_fit();
+        (cells, patches)
+    }
+
     /// Alive cells (not split), including exterior ones.
     pub fn alive_cells(&self) -> impl Iterator<Item = (CellId, &Cell)> {
         self.cells
