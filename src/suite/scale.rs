@@ -284,17 +284,53 @@ pub fn run(
     })
 }
 
-/// Stage names in first-seen order over all rows.
-fn stage_names(rows: &[ScaleRow]) -> Vec<String> {
+/// Names in first-seen order over all rows, of the (name, value) list `of` picks.
+fn names_of(rows: &[ScaleRow], of: impl Fn(&ScaleRow) -> &[(String, f64)]) -> Vec<String> {
     let mut names: Vec<String> = Vec::new();
     for r in rows {
-        for (n, _) in &r.stages {
+        for (n, _) in of(r) {
             if !names.contains(n) {
                 names.push(n.clone());
             }
         }
     }
     names
+}
+
+/// Stage names in first-seen order over all rows.
+fn stage_names(rows: &[ScaleRow]) -> Vec<String> {
+    names_of(rows, |r| &r.stages)
+}
+
+/// A Markdown table with one row per name and one column per size (headed by its
+/// triangle count), after a blank line and `caption:`; `cell` gives one cell (` v |`).
+fn per_size_table(
+    s: &mut String,
+    caption: &str,
+    first: &str,
+    rows: &[ScaleRow],
+    names: &[String],
+    cell: impl Fn(&ScaleRow, &str) -> String,
+) {
+    if names.is_empty() {
+        return;
+    }
+    s.push_str(&format!("\n{caption}:\n\n| {first} |"));
+    for r in rows {
+        s.push_str(&format!(" {} |", r.triangles));
+    }
+    s.push_str("\n|---|");
+    for _ in rows {
+        s.push_str("---:|");
+    }
+    s.push('\n');
+    for n in names {
+        s.push_str(&format!("| {n} |"));
+        for r in rows {
+            s.push_str(&cell(r, n));
+        }
+        s.push('\n');
+    }
 }
 
 fn stage_secs(r: &ScaleRow, name: &str) -> Option<f64> {
@@ -329,43 +365,24 @@ pub fn table(rep: &ScaleReport) -> String {
         f(rep.cpu_exponent),
         f(rep.memory_exponent)
     ));
-    let names = stage_names(&rep.rows);
-    if !names.is_empty() {
-        s.push_str("\nStage seconds as each run printed them:\n\n| stage |");
-        for r in &rep.rows {
-            s.push_str(&format!(" {} |", r.triangles));
-        }
-        s.push_str("\n|---|");
-        for _ in &rep.rows {
-            s.push_str("---:|");
-        }
-        s.push('\n');
-        for n in &names {
-            s.push_str(&format!("| {n} |"));
-            for r in &rep.rows {
-                s.push_str(&stage_secs(r, n).map_or(" - |".into(), |v| format!(" {v:.3} |")));
-            }
-            s.push('\n');
-        }
-    }
+    per_size_table(
+        &mut s,
+        "Stage seconds as each run printed them",
+        "stage",
+        &rep.rows,
+        &stage_names(&rep.rows),
+        |r, n| stage_secs(r, n).map_or(" - |".into(), |v| format!(" {v:.3} |")),
+    );
     let mem_names = memory_names(&rep.rows);
     if !mem_names.is_empty() {
-        s.push_str("\nPeak resident memory (MiB) at the end of each stage, as each run printed it:\n\n| after |");
-        for r in &rep.rows {
-            s.push_str(&format!(" {} |", r.triangles));
-        }
-        s.push_str("\n|---|");
-        for _ in &rep.rows {
-            s.push_str("---:|");
-        }
-        s.push('\n');
-        for n in &mem_names {
-            s.push_str(&format!("| {n} |"));
-            for r in &rep.rows {
-                s.push_str(&memory_at(r, n).map_or(" - |".into(), |v| format!(" {v:.0} |")));
-            }
-            s.push('\n');
-        }
+        per_size_table(
+            &mut s,
+            "Peak resident memory (MiB) at the end of each stage, as each run printed it",
+            "after",
+            &rep.rows,
+            &mem_names,
+            |r, n| memory_at(r, n).map_or(" - |".into(), |v| format!(" {v:.0} |")),
+        );
         let per = |r: &ScaleRow, stage: &str, count: Option<usize>| -> String {
             match (memory_at(r, stage), count) {
                 (Some(m), Some(c)) if c > 0 => format!(" {:.0} |", m * 1048576.0 / c as f64),
@@ -395,15 +412,7 @@ pub fn table(rep: &ScaleReport) -> String {
 
 /// Memory-table stage names in first-seen order over all rows.
 fn memory_names(rows: &[ScaleRow]) -> Vec<String> {
-    let mut names: Vec<String> = Vec::new();
-    for r in rows {
-        for (n, _) in &r.memory {
-            if !names.contains(n) {
-                names.push(n.clone());
-            }
-        }
-    }
-    names
+    names_of(rows, |r| &r.memory)
 }
 
 fn memory_at(r: &ScaleRow, name: &str) -> Option<f64> {
@@ -586,5 +595,61 @@ mod tests {
             vec![("load model".to_string(), 12.5), ("cell complex".to_string(), 80.0)]
         );
         assert_eq!(counter(out, "active cells"), Some(45864));
+    }
+
+    #[test]
+    fn per_size_tables_have_one_column_per_size_and_a_dash_for_missing_values() {
+        let row = |triangles: usize, stages: &[(&str, f64)], memory: &[(&str, f64)]| ScaleRow {
+            nx: 2,
+            ny: 2,
+            tess: 8,
+            triangles,
+            run_s: 2.0,
+            run_peak_mib: 10.0,
+            run_cpu_s: 1.5,
+            tetra_cpu_s: 0.1,
+            tetra_s: 0.2,
+            tetra_peak_mib: 5.0,
+            ratio: 10.0,
+            stages: stages.iter().map(|(n, v)| (n.to_string(), *v)).collect(),
+            final_cells: Some(4),
+            memory: memory.iter().map(|(n, v)| (n.to_string(), *v)).collect(),
+            tetrahedra: Some(1024),
+            active_cells: None,
+        };
+        let rep = ScaleReport {
+            rows: vec![
+                row(100, &[("load model", 0.5)], &[("cell complex", 2.0)]),
+                row(
+                    1000,
+                    &[("load model", 1.25), ("splitting", 3.0)],
+                    &[("cell complex", 8.0)],
+                ),
+            ],
+            time_exponent: None,
+            memory_exponent: None,
+            cpu_exponent: None,
+        };
+        let t = table(&rep);
+        assert!(
+            t.contains(
+                "| stage | 100 | 1000 |\n|---|---:|---:|\n| load model | 0.500 | 1.250 |\n| splitting | - | 3.000 |\n"
+            ),
+            "{t}"
+        );
+        assert!(
+            t.contains(
+                "| after | 100 | 1000 |\n|---|---:|---:|\n| cell complex | 2 | 8 |\n| tetrahedra | 1024 | 1024 |\n"
+            ),
+            "{t}"
+        );
+        assert!(
+            t.contains("| bytes per tetrahedron (peak after the cell complex) | 2048 | 8192 |"),
+            "{t}"
+        );
+        assert!(
+            t.contains("| bytes per active cell (peak after the decimation) | - | - |"),
+            "{t}"
+        );
     }
 }
