@@ -337,6 +337,19 @@ pub fn peak_rss_mib() -> Option<f64> {
     Some(kib / 1024.0)
 }
 
+/// Returns the allocator's free pages to the system (glibc's `malloc_trim`; nothing
+/// elsewhere): after [`CellComplex::release_inactive`] most of what the removed cells held
+/// is whole free pages, which the decimation's large arrays (fresh mappings) would not
+/// reuse, so its memory came on top of the complex's.
+fn trim_heap() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: `malloc_trim` only releases memory the allocator holds free; it takes no
+    // pointer and is thread-safe.
+    unsafe {
+        libc::malloc_trim(0);
+    }
+}
+
 fn sample_peak(memory: &mut Vec<(String, f64)>, stage: &str) {
     if let Some(m) = peak_rss_mib() {
         memory.push((stage.to_string(), m));
@@ -527,6 +540,7 @@ fn run_model_inner(
     // Checked: the geometry of inactive cells and unused patches is not read again, and
     // the decimation's memory reuses it.
     cells.cx.release_inactive();
+    trim_heap();
     let mut report = |steps: usize, left: usize| {
         progress(Progress {
             stage: Stage::Decimate { cells: left },
