@@ -63,7 +63,13 @@
 //! the rooms', kept apart by the same persistence that keeps rooms apart. When the merge
 //! stops, a component whose peak is below `dominance` times a neighbour's is absorbed into
 //! its dominating neighbour across the largest portal, lowest peak first. A ratio of
-//! radii, so still scale-free.
+//! radii, so still scale-free. With `slab`, so is a component whose peak is below
+//! `slab_peak` times a neighbour's and whose section projected on the plane of their
+//! portals is below `slab` times the portals' area: a slab of leaked solid along a wall,
+//! or a pocket behind one of its own faces (the gate's test of a room behind an opening,
+//! failed). The pass is a
+//! function of the stopped merge's components, so a run to the end applies it to a copy
+//! of the state where the stopped run stops (one pass for the weight curve).
 //! Both tests are ratios (areas, volumes), so the gate is scale-free. With a `cells:N`
 //! stop the gate is off (that stop asks for N cells).
 //!
@@ -103,6 +109,7 @@ pub const DEFAULT_APERTURE: ApertureGate = ApertureGate {
     dominance: 0.15,
     slices: 5,
     slab: SLAB,
+    slab_peak: 0.5,
 };
 
 /// The clean-up's slab ratio ([`ApertureGate::slab`]) of [`DEFAULT_APERTURE`].
@@ -558,13 +565,19 @@ pub struct ApertureGate {
     /// joins more.
     pub slices: usize,
     /// Slab ratio of the final clean-up pass (0: off): a component whose projected
-    /// section on the plane of its portals towards a neighbour of at least its peak is
-    /// below `slab` times their area is absorbed there as well (after the merge, with the dominance rule). A room
+    /// section on the plane of its portals towards a neighbour whose peak is above its own
+    /// by `1 / slab_peak` is below `slab` times their area is absorbed there as well (after
+    /// the merge, with the dominance rule). A room
     /// behind an opening has a section several times the opening's area (the gate keeps
     /// such pairs apart at `ratio`); a slab of leaked solid or exterior along a wall, or a
     /// pocket behind one of its own faces, has about the portal's: ratios of areas, so
     /// scale-free.
     pub slab: f64,
+    /// The slab rule applies only towards a neighbour whose peak is above the component's
+    /// by `1 / slab_peak` (a pair of comparable rooms joined by a wide tunnel, whose
+    /// interface of tetrahedron faces zigzags across it and sums to more than the
+    /// section, is not a slab and its rooms).
+    pub slab_peak: f64,
 }
 
 impl ApertureGate {
@@ -1011,10 +1024,10 @@ fn run_inner(
 /// function of the stopped merge's components only (their peaks, portals and members),
 /// so a run to the end can apply it to a copy of the state where a stopped run stops
 /// (`Cut::cleanup`). While some live component is *absorbable* — its peak is below
-/// `dominance` times a neighbour's, or (with `slab`) its projected section on the plane of
-/// its portals towards a neighbour of at least its peak is below `slab` times their area
-/// (a slab or pocket lying along that portal: the gate's own test of a room behind an
-/// opening, failed) — the lowest such component (ties: lowest id) is absorbed into the
+/// `dominance` times a neighbour's, or (with `slab`) its peak is below `slab_peak` times a
+/// neighbour's and its projected section on the plane of their portals is below `slab`
+/// times their area — a slab or pocket lying along that portal, the gate's own test of a
+/// room behind an opening failed — the lowest such component (ties: lowest id) is absorbed into the
 /// qualifying neighbour across the largest portal area (ties: lowest id); each absorption
 /// is recorded as a step (survivor: the lower id) whose weight is the peak ratio.
 fn clean_up(
@@ -1052,7 +1065,10 @@ fn clean_up(
                     continue;
                 }
                 let dominated = peak < g.dominance * o.peak;
-                if dominated || (g.slab > 0.0 && section(cx, &mut comps[i as usize], &l.frame()) < g.slab * l.area) {
+                let slab = g.slab > 0.0
+                    && peak < g.slab_peak * o.peak
+                    && section(cx, &mut comps[i as usize], &l.frame()) < g.slab * l.area;
+                if dominated || slab {
                     best = Some((l.area, j));
                 }
             }
@@ -1381,5 +1397,65 @@ mod tests {
         assert!((steps[0].weight - 0.1).abs() < 1e-12);
         // The rooms are not dominated (0.9 > 0.15 · 1.0): both stay.
         assert_eq!(comps[1].links.keys().copied().collect::<Vec<_>>(), vec![0]);
+    }
+
+    #[test]
+    fn clean_up_absorbs_a_slab_along_its_portal_and_keeps_a_room_behind_an_opening() {
+        // Components 1 and 2 are single cells of a real complex (peaks 0.4, not dominated by
+        // 0's 1.0, but below half of it); 1's portal towards 0 is far larger than its
+        // section on the portal's plane (a slab along a wall), 2's far smaller (a room
+        // behind an opening).
+        let (_, cx) = complexes().pop().unwrap();
+        let ids: Vec<u32> = cx.active_cells().map(|(id, _)| id.0).take(3).collect();
+        let link = |area: f64| Link {
+            area,
+            av: [0.0, 0.0, area],
+            largest: (area, [0.0, 0.0, 1.0], [0.0; 3]),
+            ..Link::EMPTY
+        };
+        let mut comps = vec![comp(1.0, &[]), comp(0.4, &[]), comp(0.4, &[])];
+        for (k, c) in comps.iter_mut().enumerate() {
+            c.members.push(ids[k]);
+        }
+        for (x, y, area) in [(0u32, 1u32, 1e6), (0, 2, 1e-9)] {
+            comps[x as usize].links.insert(y, link(area));
+            comps[y as usize].links.insert(x, link(area).reversed());
+        }
+        let (mut steps, mut cells) = (Vec::new(), 3);
+        clean_up(
+            &cx,
+            &mut comps,
+            &DEFAULT_APERTURE,
+            &mut steps,
+            &mut cells,
+            &mut |_, _| {},
+        );
+        let pairs: Vec<(u32, u32)> = steps.iter().map(|s| (s.a.0, s.b.0)).collect();
+        assert_eq!(pairs, vec![(0, 1)]);
+        assert!((steps[0].weight - 0.4).abs() < 1e-12);
+        assert_eq!(comps[0].members.len(), 2, "the slab's cells joined");
+        // Without the slab rule, or with peaks of comparable rooms, nothing is absorbed.
+        for (g, p) in [
+            (
+                ApertureGate {
+                    slab: 0.0,
+                    ..DEFAULT_APERTURE
+                },
+                0.4,
+            ),
+            (DEFAULT_APERTURE, 0.9),
+        ] {
+            let mut fresh = vec![comp(1.0, &[]), comp(p, &[]), comp(p, &[])];
+            for (k, c) in fresh.iter_mut().enumerate() {
+                c.members.push(ids[k]);
+            }
+            for (x, y, area) in [(0u32, 1u32, 1e6), (0, 2, 1e-9)] {
+                fresh[x as usize].links.insert(y, link(area));
+                fresh[y as usize].links.insert(x, link(area).reversed());
+            }
+            let (mut steps, mut cells) = (Vec::new(), 3);
+            clean_up(&cx, &mut fresh, &g, &mut steps, &mut cells, &mut |_, _| {});
+            assert!(steps.is_empty());
+        }
     }
 }
