@@ -6,7 +6,8 @@
 //!
 //! Environment: `SCORE=1` scores the final partition at `RATIO` (default 1.8) instead of
 //! tracing; `FINAL=1` (or `all`) describes its final cells; `SPLITS=1` the split rooms;
-//! `DOMINANCE` and `SLICES` set the gate's dominance ratio and section slices.
+//! `DOMINANCE`, `SLICES`, `SLAB` and `SLAB_PEAK` set the gate's dominance ratio, section
+//! slices and the clean-up's slab ratios.
 
 use portalfind::decimate::clearance::{ApertureGate, trace};
 use portalfind::decimate::{HeuristicKind, Settings, StopRule};
@@ -42,6 +43,11 @@ fn main() {
                 .and_then(|d| d.parse().ok())
                 .unwrap_or(0.0),
             slices: std::env::var("SLICES").ok().and_then(|d| d.parse().ok()).unwrap_or(0),
+            slab: std::env::var("SLAB").ok().and_then(|d| d.parse().ok()).unwrap_or(0.0),
+            slab_peak: std::env::var("SLAB_PEAK")
+                .ok()
+                .and_then(|d| d.parse().ok())
+                .unwrap_or(0.5),
         }),
         _ => None,
     };

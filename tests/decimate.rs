@@ -470,16 +470,55 @@ fn untimed(d: &Decimation) -> (Vec<Step>, StopReason, Partition, DecimationStats
     (d.steps.clone(), d.stop, d.partition.clone(), s)
 }
 
+/// An 8 m cube room and a 1 m closet behind it, joined by a 0.2 × 0.2 m tunnel through a
+/// 0.5 m wall at floor level: the closet's largest empty ball (0.5) is far more than the
+/// tunnel's pass (0.1), so it persists past the stop at 1.8, and far less than the room's
+/// (4), so `aperture`'s clean-up absorbs it after the stop.
+fn room_and_closet() -> Soup {
+    let mut s = Soup::default();
+    // The room, x, y, z in [0, 8]; its wall at x = 8 has the tunnel's opening.
+    s.rect(2, 0.0, (0.0, 8.0), (0.0, 8.0), true);
+    s.rect(2, 8.0, (0.0, 8.0), (0.0, 8.0), false);
+    s.rect(1, 0.0, (0.0, 8.0), (0.0, 8.0), true);
+    s.rect(1, 8.0, (0.0, 8.0), (0.0, 8.0), false);
+    s.rect(0, 0.0, (0.0, 8.0), (0.0, 8.0), true);
+    s.rect(0, 8.0, (0.0, 3.9), (0.0, 8.0), false);
+    s.rect(0, 8.0, (4.1, 8.0), (0.0, 8.0), false);
+    s.rect(0, 8.0, (3.9, 4.1), (0.2, 8.0), false);
+    // The tunnel, x in [8, 8.5], y in [3.9, 4.1], z in [0, 0.4].
+    s.rect(2, 0.0, (8.0, 8.5), (3.9, 4.1), true);
+    s.rect(2, 0.2, (8.0, 8.5), (3.9, 4.1), false);
+    s.rect(1, 3.9, (0.0, 0.2), (8.0, 8.5), true);
+    s.rect(1, 4.1, (0.0, 0.2), (8.0, 8.5), false);
+    // The closet, x in [8.5, 9.5], y in [3.5, 4.5], z in [0, 1]; its wall at x = 8.5 has
+    // the tunnel's other end.
+    s.rect(2, 0.0, (8.5, 9.5), (3.5, 4.5), true);
+    s.rect(2, 1.0, (8.5, 9.5), (3.5, 4.5), false);
+    s.rect(1, 3.5, (0.0, 1.0), (8.5, 9.5), true);
+    s.rect(1, 4.5, (0.0, 1.0), (8.5, 9.5), false);
+    s.rect(0, 9.5, (3.5, 4.5), (0.0, 1.0), false);
+    s.rect(0, 8.5, (3.5, 3.9), (0.0, 1.0), true);
+    s.rect(0, 8.5, (4.1, 4.5), (0.0, 1.0), true);
+    s.rect(0, 8.5, (3.9, 4.1), (0.2, 1.0), true);
+    s
+}
+
 #[test]
 fn run_with_curve_equals_the_stopped_run_and_the_run_to_the_end() {
     // `run` takes the stopped run and the weight curve past the stop from one pass (for the
-    // clearance engine at a threshold stop); both must equal their own runs.
+    // clearance engine at a threshold stop, `aperture`'s clean-up pass included); both must
+    // equal their own runs.
     let (grid, _) = scenes::room_grid(2, 2, 8);
-    for (i, soup) in [four_rooms(), four_rooms().map(rotate), grid].into_iter().enumerate() {
+    let mut cleaned_up = false;
+    for (i, soup) in [four_rooms(), four_rooms().map(rotate), grid, room_and_closet()]
+        .into_iter()
+        .enumerate()
+    {
         let cx = build(&soup);
         for (h, e) in all_combinations() {
-            // On the grid (where the aperture gate acts) only the clearance engine, once.
-            if i == 2 && (h.heuristic().engine() != HeuristicEngine::Clearance || e != Estimator::ALL[0]) {
+            // On the grid (where the aperture gate acts) and the closet (where the clean-up
+            // acts) only the clearance engine, once.
+            if i >= 2 && (h.heuristic().engine() != HeuristicEngine::Clearance || e != Estimator::ALL[0]) {
                 continue;
             }
             let full = Decimation::run(&cx, &settings(h, e, StopRule::None));
@@ -496,6 +535,16 @@ fn run_with_curve_equals_the_stopped_run_and_the_run_to_the_end() {
                 let mut seen = 0;
                 let (got, curve) = Decimation::run_with_curve(&cx, &settings(h, e, stop), &mut |_, _| seen += 1);
                 assert_eq!(untimed(&got), untimed(&want), "{h}/{e} {stop}");
+                // The closet: the clean-up's absorption (weight = peak ratio < 0.15) ends the
+                // stopped run at the default stop.
+                if i == 3 && h == HeuristicKind::Aperture && stop == StopRule::Threshold(1.8) {
+                    assert!(
+                        want.steps.last().is_some_and(|st| st.weight < 0.15),
+                        "no clean-up step: {:?}",
+                        &want.steps[want.steps.len().saturating_sub(3)..]
+                    );
+                    cleaned_up = true;
+                }
                 assert_eq!(got.settings, want.settings);
                 assert!(seen >= want.steps.len());
                 match curve {
@@ -505,6 +554,7 @@ fn run_with_curve_equals_the_stopped_run_and_the_run_to_the_end() {
             }
         }
     }
+    assert!(cleaned_up);
 }
 
 /// A model where `aperture`'s clean-up pass acts (a leaking noisy building of the suite's
@@ -521,8 +571,8 @@ fn run_with_curve_equals_the_stopped_run_where_the_clean_up_acts() {
     let want = Decimation::run(&cx, &s);
     let (got, curve) = Decimation::run_with_curve(&cx, &s, &mut |_, _| {});
     assert_eq!(untimed(&got), untimed(&want));
-    // The clean-up acted: the last steps are absorptions (weights = peak ratios < 1).
-    assert!(want.steps.last().is_some_and(|st| st.weight < 0.15), "no clean-up step");
+    // The clean-up acted: the last steps are absorptions (weights = peak ratios ≤ 1).
+    assert!(want.steps.last().is_some_and(|st| st.weight <= 1.0), "no clean-up step");
     let full = Decimation::run(
         &cx,
         &settings(HeuristicKind::Aperture, Estimator::ALL[0], StopRule::None),

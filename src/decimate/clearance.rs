@@ -63,7 +63,13 @@
 //! the rooms', kept apart by the same persistence that keeps rooms apart. When the merge
 //! stops, a component whose peak is below `dominance` times a neighbour's is absorbed into
 //! its dominating neighbour across the largest portal, lowest peak first. A ratio of
-//! radii, so still scale-free.
+//! radii, so still scale-free. With `slab`, so is a component whose peak is below
+//! `slab_peak` times a neighbour's and whose section projected on the plane of their
+//! portals is below `slab` times the portals' area: a slab of leaked solid along a wall,
+//! or a pocket behind one of its own faces (the gate's test of a room behind an opening,
+//! failed). The pass is a
+//! function of the stopped merge's components, so a run to the end applies it to a copy
+//! of the state where the stopped run stops (one pass for the weight curve).
 //! Both tests are ratios (areas, volumes), so the gate is scale-free. With a `cells:N`
 //! stop the gate is off (that stop asks for N cells).
 //!
@@ -102,7 +108,12 @@ pub const DEFAULT_APERTURE: ApertureGate = ApertureGate {
     ball: 2.0,
     dominance: 0.15,
     slices: 5,
+    slab: SLAB,
+    slab_peak: 0.5,
 };
+
+/// The clean-up's slab ratio ([`ApertureGate::slab`]) of [`DEFAULT_APERTURE`].
+const SLAB: f64 = 1.5;
 
 /// The clearance field sampled on the cell complex (see the module docs).
 #[derive(Clone, Debug)]
@@ -553,6 +564,20 @@ pub struct ApertureGate {
     /// parallel cuts do not). A cut lies inside its projection, so slicing only ever
     /// joins more.
     pub slices: usize,
+    /// Slab ratio of the final clean-up pass (0: off): a component whose projected
+    /// section on the plane of its portals towards a neighbour whose peak is above its own
+    /// by `1 / slab_peak` is below `slab` times their area is absorbed there as well (after
+    /// the merge, with the dominance rule). A room
+    /// behind an opening has a section several times the opening's area (the gate keeps
+    /// such pairs apart at `ratio`); a slab of leaked solid or exterior along a wall, or a
+    /// pocket behind one of its own faces, has about the portal's: ratios of areas, so
+    /// scale-free.
+    pub slab: f64,
+    /// The slab rule applies only towards a neighbour whose peak is above the component's
+    /// by `1 / slab_peak` (a pair of comparable rooms joined by a wide tunnel, whose
+    /// interface of tetrahedron faces zigzags across it and sums to more than the
+    /// section, is not a slab and its rooms).
+    pub slab_peak: f64,
 }
 
 impl ApertureGate {
@@ -599,8 +624,9 @@ pub(crate) fn run(cx: &CellComplex, settings: &Settings, progress: &mut dyn FnMu
 }
 
 /// The run to the end (stop `none`) and, from the same pass, the run stopped at
-/// `threshold:r` (a prefix of it: up to the first pair popped at or above `r`, which
-/// is where the stopped run would have stopped; same steps, stop reason and counters).
+/// `threshold:r` (a prefix of it up to the first pair popped at or above `r`, which
+/// is where the stopped run would have stopped, followed by the clean-up pass applied to a
+/// copy of the components there; same steps, stop reason and counters).
 pub(crate) fn run_to_end_and_cut(
     cx: &CellComplex,
     settings: &Settings,
@@ -824,12 +850,19 @@ fn run_inner(
             && c.is_none()
             && w >= *r
         {
+            // The stopped run's clean-up, on a copy of the state where it stops.
+            let mut cleanup = Vec::new();
+            if let Some(g) = gate {
+                let (mut copy, mut left) = (comps.clone(), cells);
+                clean_up(cx, &mut copy, &g, &mut cleanup, &mut left, &mut |_, _| {});
+            }
             **c = Some(super::Cut {
                 steps: steps.len(),
                 next_weight: w,
                 weights_computed: stats.weights_computed,
                 reweighs_skipped: stats.reweighs_skipped,
                 collapse_seconds: t1.elapsed().as_secs_f64(),
+                cleanup,
             });
         }
         let gated = gate.filter(|g| {
@@ -972,8 +1005,8 @@ fn run_inner(
             });
         }
     };
-    if let Some(g) = gate.filter(|g| g.dominance > 0.0) {
-        absorb_dominated(&mut comps, g.dominance, &mut steps, &mut cells, progress);
+    if let Some(g) = gate {
+        clean_up(cx, &mut comps, &g, &mut steps, &mut cells, progress);
     }
     stats.steps = steps.len();
     stats.collapse_seconds = t1.elapsed().as_secs_f64();
@@ -987,46 +1020,75 @@ fn run_inner(
     }
 }
 
-/// The clean-up pass (see [`ApertureGate::dominance`]): while some live component's peak
-/// is below `ratio` times a neighbour's, the lowest such component (ties: lowest id) is
-/// absorbed into its dominating neighbour across the largest portal area (ties: lowest
-/// id); each absorption is recorded as a step (survivor: the lower id) whose weight is
-/// the peak ratio.
-fn absorb_dominated(
+/// The clean-up pass (see [`ApertureGate::dominance`] and [`ApertureGate::slab`]), a
+/// function of the stopped merge's components only (their peaks, portals and members),
+/// so a run to the end can apply it to a copy of the state where a stopped run stops
+/// (`Cut::cleanup`). While some live component is *absorbable* — its peak is below
+/// `dominance` times a neighbour's, or (with `slab`) its peak is below `slab_peak` times a
+/// neighbour's and its projected section on the plane of their portals is below `slab`
+/// times their area — a slab or pocket lying along that portal, the gate's own test of a
+/// room behind an opening failed — the lowest such component (ties: lowest id) is absorbed into the
+/// qualifying neighbour across the largest portal area (ties: lowest id); each absorption
+/// is recorded as a step (survivor: the lower id) whose weight is the peak ratio.
+fn clean_up(
+    cx: &CellComplex,
     comps: &mut [Comp],
-    ratio: f64,
+    g: &ApertureGate,
     steps: &mut Vec<Step>,
     cells: &mut usize,
     progress: &mut dyn FnMut(usize, usize),
 ) {
+    if g.dominance <= 0.0 && g.slab <= 0.0 {
+        return;
+    }
+    // Components known not to be absorbable (until they or a neighbour change).
+    let mut settled = vec![false; comps.len()];
     loop {
-        // (peak, id) of the lowest dominated component, and its chosen neighbour.
-        let mut pick: Option<(f64, u32, u32, f64)> = None;
-        for (i, c) in comps.iter().enumerate() {
-            if !c.alive || pick.is_some_and(|(p, ..)| c.peak > p) {
-                continue;
-            }
+        let mut order: Vec<u32> = (0..comps.len() as u32)
+            .filter(|&i| comps[i as usize].alive && !settled[i as usize])
+            .collect();
+        order.sort_by(|&x, &y| {
+            comps[x as usize]
+                .peak
+                .total_cmp(&comps[y as usize].peak)
+                .then(x.cmp(&y))
+        });
+        // The lowest absorbable component, its chosen neighbour and the peak ratio.
+        let mut pick: Option<(u32, u32, f64)> = None;
+        for &i in &order {
+            let links: Vec<(u32, Link)> = comps[i as usize].links.0.clone();
+            let peak = comps[i as usize].peak;
             let mut best: Option<(f64, u32)> = None;
-            for (&j, l) in &c.links {
+            for (j, l) in links {
                 let o = &comps[j as usize];
-                if o.alive && o.peak > 0.0 && c.peak < ratio * o.peak && best.is_none_or(|(a, _)| l.area > a) {
+                if !o.alive || o.peak <= 0.0 || peak > o.peak || best.is_some_and(|(a, _)| l.area <= a) {
+                    continue;
+                }
+                let dominated = peak < g.dominance * o.peak;
+                let slab = g.slab > 0.0
+                    && peak < g.slab_peak * o.peak
+                    && section(cx, &mut comps[i as usize], &l.frame()) < g.slab * l.area;
+                if dominated || slab {
                     best = Some((l.area, j));
                 }
             }
-            if let Some((_, j)) = best
-                && pick.is_none_or(|(p, ..)| c.peak < p)
-            {
-                pick = Some((c.peak, i as u32, j, c.peak / comps[j as usize].peak));
+            match best {
+                Some((_, j)) => {
+                    pick = Some((i, j, peak / comps[j as usize].peak));
+                    break;
+                }
+                None => settled[i as usize] = true,
             }
         }
-        let Some((_, x, y, w)) = pick else {
+        let Some((x, y, w)) = pick else {
             return;
         };
         let (a, b) = (x.min(y), x.max(y));
         let l = comps[a as usize].links[&b];
-        let cb = std::mem::take(&mut comps[b as usize]);
+        let mut cb = std::mem::take(&mut comps[b as usize]);
         let mut ca = std::mem::take(&mut comps[a as usize]);
         ca.links.remove(&b);
+        settled[a as usize] = false;
         for (&k, lk) in &cb.links {
             if k == a {
                 continue;
@@ -1037,9 +1099,23 @@ fn absorb_dominated(
             *entry = entry.fuse(lk);
             m.insert(a, entry.reversed());
         }
+        for &k in ca.links.keys() {
+            settled[k as usize] = false;
+        }
         ca.peak = ca.peak.max(cb.peak);
         ca.volume += cb.volume;
         ca.pieces += cb.pieces;
+        if ca.members.len() < cb.members.len() {
+            std::mem::swap(&mut ca.members, &mut cb.members);
+        }
+        ca.members.append(&mut cb.members);
+        ca.hull = match (ca.hull.take(), cb.hull.take()) {
+            (Some(mut h), Some(h2)) => {
+                h.insert_all(&h2);
+                Some(h)
+            }
+            _ => None,
+        };
         ca.alive = true;
         comps[a as usize] = ca;
         *cells -= 1;
@@ -1306,7 +1382,13 @@ mod tests {
             comp(0.01, &[(2, 0.3)]),
         ];
         let (mut steps, mut cells) = (Vec::new(), 4);
-        absorb_dominated(&mut comps, 0.15, &mut steps, &mut cells, &mut |_, _| {});
+        let (_, cx) = complexes().pop().unwrap();
+        let g = ApertureGate {
+            dominance: 0.15,
+            slab: 0.0,
+            ..DEFAULT_APERTURE
+        };
+        clean_up(&cx, &mut comps, &g, &mut steps, &mut cells, &mut |_, _| {});
         let pairs: Vec<(u32, u32)> = steps.iter().map(|s| (s.a.0, s.b.0)).collect();
         // 3 first (lowest peak; its only neighbour 2 dominates it), then 2 into 1.
         assert_eq!(pairs, vec![(2, 3), (1, 2)]);
@@ -1315,5 +1397,65 @@ mod tests {
         assert!((steps[0].weight - 0.1).abs() < 1e-12);
         // The rooms are not dominated (0.9 > 0.15 · 1.0): both stay.
         assert_eq!(comps[1].links.keys().copied().collect::<Vec<_>>(), vec![0]);
+    }
+
+    #[test]
+    fn clean_up_absorbs_a_slab_along_its_portal_and_keeps_a_room_behind_an_opening() {
+        // Components 1 and 2 are single cells of a real complex (peaks 0.4, not dominated by
+        // 0's 1.0, but below half of it); 1's portal towards 0 is far larger than its
+        // section on the portal's plane (a slab along a wall), 2's far smaller (a room
+        // behind an opening).
+        let (_, cx) = complexes().pop().unwrap();
+        let ids: Vec<u32> = cx.active_cells().map(|(id, _)| id.0).take(3).collect();
+        let link = |area: f64| Link {
+            area,
+            av: [0.0, 0.0, area],
+            largest: (area, [0.0, 0.0, 1.0], [0.0; 3]),
+            ..Link::EMPTY
+        };
+        let mut comps = vec![comp(1.0, &[]), comp(0.4, &[]), comp(0.4, &[])];
+        for (k, c) in comps.iter_mut().enumerate() {
+            c.members.push(ids[k]);
+        }
+        for (x, y, area) in [(0u32, 1u32, 1e6), (0, 2, 1e-9)] {
+            comps[x as usize].links.insert(y, link(area));
+            comps[y as usize].links.insert(x, link(area).reversed());
+        }
+        let (mut steps, mut cells) = (Vec::new(), 3);
+        clean_up(
+            &cx,
+            &mut comps,
+            &DEFAULT_APERTURE,
+            &mut steps,
+            &mut cells,
+            &mut |_, _| {},
+        );
+        let pairs: Vec<(u32, u32)> = steps.iter().map(|s| (s.a.0, s.b.0)).collect();
+        assert_eq!(pairs, vec![(0, 1)]);
+        assert!((steps[0].weight - 0.4).abs() < 1e-12);
+        assert_eq!(comps[0].members.len(), 2, "the slab's cells joined");
+        // Without the slab rule, or with peaks of comparable rooms, nothing is absorbed.
+        for (g, p) in [
+            (
+                ApertureGate {
+                    slab: 0.0,
+                    ..DEFAULT_APERTURE
+                },
+                0.4,
+            ),
+            (DEFAULT_APERTURE, 0.9),
+        ] {
+            let mut fresh = vec![comp(1.0, &[]), comp(p, &[]), comp(p, &[])];
+            for (k, c) in fresh.iter_mut().enumerate() {
+                c.members.push(ids[k]);
+            }
+            for (x, y, area) in [(0u32, 1u32, 1e6), (0, 2, 1e-9)] {
+                fresh[x as usize].links.insert(y, link(area));
+                fresh[y as usize].links.insert(x, link(area).reversed());
+            }
+            let (mut steps, mut cells) = (Vec::new(), 3);
+            clean_up(&cx, &mut fresh, &g, &mut steps, &mut cells, &mut |_, _| {});
+            assert!(steps.is_empty());
+        }
     }
 }

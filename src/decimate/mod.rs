@@ -248,8 +248,9 @@ pub struct DecimationStats {
 }
 
 /// Where a run to the end passed the point at which a `threshold` run stops (the first
-/// pair popped at or above the threshold): the steps and counters up to there.
-#[derive(Clone, Copy, Debug)]
+/// pair popped at or above the threshold): the steps and counters up to there, and the
+/// steps of the clean-up pass that the stopped run applies there.
+#[derive(Clone, Debug)]
 pub(crate) struct Cut {
     /// Collapses before the cut.
     pub steps: usize,
@@ -261,6 +262,9 @@ pub(crate) struct Cut {
     pub reweighs_skipped: u64,
     /// Seconds collapsing before the cut.
     pub collapse_seconds: f64,
+    /// The clean-up pass's absorptions at the cut (`aperture`; empty without a clean-up),
+    /// computed on a copy of the state there: the stopped run's last steps.
+    pub cleanup: Vec<Step>,
 }
 
 /// A (merged) cell of a partition.
@@ -855,9 +859,10 @@ impl Decimation {
     /// The run with `settings` and, when it stops early (a `threshold` or `cells` stop),
     /// the collapses of the run to the end (stop `none`): what the weight curve shows past
     /// the stop. With the `clearance` engine and a `threshold` stop both come from one pass
-    /// (the stopped run is a prefix of the run to the end, cut where it would have stopped:
-    /// same steps, stop reason, partition and counters, timings aside); otherwise the run to
-    /// the end is a second run. `progress` sees the first pass.
+    /// (the stopped run is a prefix of the run to the end, cut where it would have stopped,
+    /// followed by `aperture`'s clean-up pass applied to a copy of the state there: same
+    /// steps, stop reason, partition and counters, timings aside); otherwise the run to the
+    /// end is a second run. `progress` sees the first pass.
     pub fn run_with_curve(
         cx: &CellComplex,
         settings: &Settings,
@@ -866,17 +871,11 @@ impl Decimation {
         if settings.stop == StopRule::None {
             return (Self::run_with_progress(cx, settings, progress), None);
         }
-        // One pass only where the stopped run is a prefix of the run to the end: the
-        // clearance engine at a threshold stop, without the aperture gate's clean-up pass
-        // (which absorbs dominated components *after* the stop, so the stopped run is not a
-        // prefix there: e1m1 ended at 43 cells instead of the stopped run's 39).
+        // One pass for the clearance engine at a threshold stop: the stopped run is a prefix
+        // of the run to the end, plus (for `aperture`) its clean-up pass, which is a function
+        // of the state at the stop and is applied to a copy of it there (`Cut::cleanup`).
         if let StopRule::Threshold(r) = settings.stop
             && settings.heuristic.heuristic().engine() == HeuristicEngine::Clearance
-            && settings
-                .heuristic
-                .heuristic()
-                .aperture_gate()
-                .is_none_or(|g| g.dominance <= 0.0)
         {
             let (stopped, full) = clearance::run_to_end_and_cut(cx, settings, r, progress);
             return (stopped, Some(full.steps));
@@ -902,7 +901,8 @@ impl Decimation {
                 ..self.clone()
             };
         };
-        let steps = self.steps[..c.steps].to_vec();
+        let mut steps = self.steps[..c.steps].to_vec();
+        steps.extend_from_slice(&c.cleanup);
         let partition = Self::replay(cx, &steps).expect("a prefix of a run replays");
         let threshold = match settings.stop {
             StopRule::Threshold(t) => t,
@@ -915,7 +915,7 @@ impl Decimation {
                 next_weight: c.next_weight,
             },
             stats: DecimationStats {
-                steps: c.steps,
+                steps: steps.len(),
                 weights_computed: c.weights_computed,
                 reweighs_skipped: c.reweighs_skipped,
                 collapse_seconds: c.collapse_seconds,
