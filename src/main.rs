@@ -364,6 +364,26 @@ enum BenchCmd {
         #[arg(long, default_value = "results/visibility")]
         out: PathBuf,
     },
+    /// Issue 14's window representations along the walkthroughs: on the thesis models, the
+    /// generated multi-storey building and e1m1 (default `run` partition), level and tilted
+    /// cameras, per representation the mean and worst triangles rendered and windows
+    /// passed, the triangles missed against the exact window (must be 0) and the culling
+    /// time per frame (every frame culled --repeat times by each, interleaved). Writes
+    /// OUT/walkthrough.csv, walkthrough.md and per walk frames_<model>_<camera>.csv/.png.
+    Walkthrough {
+        /// Only the models whose name contains one of these (comma-separated).
+        #[arg(long, value_delimiter = ',')]
+        models: Vec<String>,
+        /// Timing repetitions per frame and representation.
+        #[arg(long, default_value_t = 3)]
+        repeat: usize,
+        /// At most this many frames per walkthrough.
+        #[arg(long, default_value_t = portalfind::visibility::walk::WalkSettings::default().max_frames)]
+        max_frames: usize,
+        /// Output directory.
+        #[arg(long, default_value = "results/walkthrough")]
+        out: PathBuf,
+    },
     /// 3D Delaunay on uniform, grid, boxes and rotated+offset inputs; each case runs in its
     /// own process so peak memory is per case. Prints a Markdown table.
     Delaunay {
@@ -690,6 +710,12 @@ fn run(cli: Cli) -> Result<()> {
                 no_sampling,
                 out,
             } => bench_visibility(&models, no_sampling, &out),
+            BenchCmd::Walkthrough {
+                models,
+                repeat,
+                max_frames,
+                out,
+            } => bench_walkthrough(&models, repeat, max_frames, &out),
             BenchCmd::Scale {
                 max_triangles,
                 min_triangles,
@@ -1594,6 +1620,62 @@ fn bench_visibility(only: &[String], no_sampling: bool, out: &std::path::Path) -
         println!("wrote {}", f.display());
     }
     print!("{}", vb::table(&rows));
+    Ok(())
+}
+
+fn bench_walkthrough(only: &[String], repeat: usize, max_frames: usize, out: &std::path::Path) -> Result<()> {
+    use portalfind::suite::walkthrough as wb;
+    use portalfind::visibility::walk::WalkSettings;
+    let t0 = Instant::now();
+    let ms = wb::models(std::path::Path::new("."), only).context("cannot load the models")?;
+    if ms.is_empty() {
+        bail!("--models: no model matches {only:?}");
+    }
+    let ws = WalkSettings {
+        max_frames,
+        ..WalkSettings::default()
+    };
+    let mut rows = Vec::new();
+    for m in &ms {
+        let t1 = Instant::now();
+        eprintln!("{}: {} triangles", m.name, m.model.triangle_count());
+        for w in wb::run_model(m, &ws, repeat)? {
+            for f in wb::write_walk(out, &w)? {
+                println!("wrote {}", f.display());
+            }
+            for r in &w.rows {
+                eprintln!(
+                    "  roll {} {}: {:.1} triangles (worst {}), {:.2} windows, {} frames missing, {:.1} CPU us/frame, {:.1} wall us/frame",
+                    r.roll_deg,
+                    r.window,
+                    r.mean_triangles,
+                    r.max_triangles,
+                    r.mean_portals,
+                    r.frames_missing,
+                    r.cpu_us_per_frame_best.unwrap_or(f64::NAN),
+                    r.us_per_frame_best
+                );
+            }
+            rows.extend(w.rows);
+        }
+        eprintln!("  {:.1} s", t1.elapsed().as_secs_f64());
+    }
+    let command = std::iter::once("portalfind".to_string())
+        .chain(std::env::args().skip(1))
+        .collect::<Vec<_>>()
+        .join(" ");
+    let preamble = format!(
+        "Whole command: {:.1} s wall on this machine (shared, 2 cores). Culling times are the culling \
+         thread's CPU time (CLOCK_THREAD_CPUTIME_ID) and wall-clock time in that one process: every frame \
+         culled by each representation back to back, rotating which goes first; `best` is the fastest \
+         repetition's mean per frame, `median` the median repetition's. Compare representations within \
+         one section, not across runs.\n",
+        t0.elapsed().as_secs_f64()
+    );
+    for f in wb::write(out, &rows, &command, &preamble)? {
+        println!("wrote {}", f.display());
+    }
+    print!("{}", wb::table(&rows));
     Ok(())
 }
 

@@ -29,7 +29,7 @@ use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-mod plot;
+pub mod plot;
 
 /// The file names.
 pub const VISIBILITY_FILE: &str = "visibility.json";

@@ -7,7 +7,7 @@
 //! (`experiment::report`).
 
 use super::OutputError;
-use super::plot::{FONT_FAMILY, register_fonts};
+use super::plot::{FONT_FAMILY, err, register_fonts};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
@@ -47,10 +47,6 @@ const PALETTE: [RGBColor; 6] = [
     RGBColor(230, 120, 0),
     RGBColor(0, 150, 170),
 ];
-
-fn err<E: std::fmt::Debug>(e: E) -> OutputError {
-    OutputError::Plot(format!("{e:?}"))
-}
 
 /// Draws `c` onto `root`.
 pub fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, c: &Comparison) -> Result<(), OutputError>

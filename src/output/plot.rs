@@ -28,8 +28,38 @@ pub fn register_fonts() -> bool {
     *DONE.get_or_init(|| plotters::style::register_font(FONT_FAMILY, FontStyle::Normal, FONT).is_ok())
 }
 
-fn err<E: std::fmt::Debug>(e: E) -> OutputError {
+pub(crate) fn err<E: std::fmt::Debug>(e: E) -> OutputError {
     OutputError::Plot(format!("{e:?}"))
+}
+
+/// The frame of the simple charts (the scatter plots, `evaluate`'s per-frame lines): a
+/// 20-pixel margin and, when the font is registered (`text`), the caption (22 px) and the
+/// label areas (45 px below, `y_area` left).
+pub fn chart_frame<'a, 'b, DB: DrawingBackend>(
+    area: &'a DrawingArea<DB, Shift>,
+    title: &str,
+    text: bool,
+    y_area: u32,
+) -> ChartBuilder<'a, 'b, DB> {
+    let mut b = ChartBuilder::on(area);
+    b.margin(20);
+    if text {
+        b.caption(title, (FONT_FAMILY, 22))
+            .x_label_area_size(45)
+            .y_label_area_size(y_area);
+    }
+    b
+}
+
+/// The legend box of the simple charts: translucent white, black border.
+pub fn legend_box<'a, DB: DrawingBackend + 'a, CT: plotters::coord::CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+) -> Result<(), plotters::drawing::DrawingAreaErrorKind<DB::ErrorType>> {
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
 }
 
 /// What the weight curve shows.
@@ -444,14 +474,7 @@ where
     if !(xlo.is_finite() && xlo > 0.0) {
         (xlo, xhi) = (0.01, 10.0);
     }
-    let mut b = ChartBuilder::on(&root);
-    b.margin(20);
-    if text {
-        b.caption(title, ("sans-serif", 22))
-            .x_label_area_size(45)
-            .y_label_area_size(70);
-    }
-    let mut chart = b
+    let mut chart = chart_frame(&root, title, text, 70)
         .build_cartesian_2d((xlo / 1.5..xhi * 3.0).log_scale(), 0.0..(yhi * 1.1).max(0.05))
         .map_err(err)?;
     if text {
@@ -490,12 +513,7 @@ where
         }
     }
     if text {
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw()
-            .map_err(err)?;
+        legend_box(&mut chart).map_err(err)?;
     }
     root.present().map_err(err)?;
     Ok(())

@@ -61,6 +61,7 @@ pub mod stress;
 pub mod thesis;
 mod util;
 pub mod visibility;
+pub mod walkthrough;
 
 pub use util::{Aabb, Similarity};
 

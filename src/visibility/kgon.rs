@@ -238,6 +238,28 @@ fn sphere(ps: &[P3]) -> (P3, f64) {
     (c, r)
 }
 
+/// Whether a triangle meets the screen-polygon window of `planes` (lenient by `Camera::tol`),
+/// after the bounding-sphere pre-rejection: the triangle test of [`KgonWindow`] and
+/// [`HullWindow`].
+fn sees_through(planes: &[Plane], cam: &Camera, tri: &[P3; 3], ops: &mut Ops) -> bool {
+    ops.triangle_tests += 1;
+    let (c, r) = sphere(tri);
+    if sphere_outside(planes, &c, r, cam.tol) {
+        ops.sphere_rejects += 1;
+        return false;
+    }
+    clip_tol(tri, planes, -cam.tol, ops).is_some()
+}
+
+/// The planes of a narrowed screen-polygon window: [`planes_of`] the polygon, then the
+/// viewport's four planes (edge removal may reach past the screen; the viewport still clips
+/// there).
+fn window_planes(cam: &Camera, p: &[P2]) -> Vec<Plane> {
+    let mut planes = planes_of(cam, p);
+    planes.extend(ExactWindow::view(cam).planes[1..].iter().copied());
+    planes
+}
+
 /// The window as a convex screen polygon of at most `K` edges.
 #[derive(Clone, Debug, PartialEq)]
 pub struct KgonWindow<const K: usize> {
@@ -270,13 +292,7 @@ impl<const K: usize> Window for KgonWindow<K> {
     }
 
     fn sees(&self, cam: &Camera, tri: &[P3; 3], ops: &mut Ops) -> bool {
-        ops.triangle_tests += 1;
-        let (c, r) = sphere(tri);
-        if sphere_outside(&self.planes, &c, r, cam.tol) {
-            ops.sphere_rejects += 1;
-            return false;
-        }
-        clip_tol(tri, &self.planes, -cam.tol, ops).is_some()
+        sees_through(&self.planes, cam, tri, ops)
     }
 }
 
@@ -327,9 +343,7 @@ fn narrow_screen(
         Some(k) => simplify(&i, k, ops),
         None => i,
     };
-    let mut planes = planes_of(cam, &out);
-    // Edge removal may reach past the screen; the viewport still clips there.
-    planes.extend(ExactWindow::view(cam).planes[1..].iter().copied());
+    let planes = window_planes(cam, &out);
     Some((out, planes))
 }
 
@@ -368,13 +382,7 @@ impl<const M: bool> Window for HullWindow<M> {
     }
 
     fn sees(&self, cam: &Camera, tri: &[P3; 3], ops: &mut Ops) -> bool {
-        ops.triangle_tests += 1;
-        let (c, r) = sphere(tri);
-        if sphere_outside(&self.planes, &c, r, cam.tol) {
-            ops.sphere_rejects += 1;
-            return false;
-        }
-        clip_tol(tri, &self.planes, -cam.tol, ops).is_some()
+        sees_through(&self.planes, cam, tri, ops)
     }
 }
 

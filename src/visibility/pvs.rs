@@ -646,4 +646,41 @@ mod tests {
         assert!(!pvs.sees(0, 3) && !pvs.sees(3, 0));
         assert!(pvs.sees(0, 2) && pvs.sees(1, 3));
     }
+
+    /// Regression (5194a07): two overlapping portals closer than the on-plane tolerance —
+    /// a crack cell between them, as on e1m1's folded walls. Cells 0 | 1 | 2 along x, the
+    /// unit square portals at x = 1 and x = 1 + δ with δ below `epsilon_rel` × diagonal.
+    /// The sight line from (0, 0.5, 0.5) along (1, 0.1, 0) crosses x = 1 at y = 0.6 and
+    /// x = 1 + δ at y ≈ 0.6, inside both squares: cell 0 sees cell 2. The old base
+    /// visibility asked for a vertex of the next portal *more* than ε in front of the
+    /// source (and of the source more than ε behind the next), so the second portal, all
+    /// within ε of the first's plane, was dropped with cell 2 behind it.
+    #[test]
+    fn stacked_portals_closer_than_the_tolerance_stay_visible() {
+        let s = PvsSettings::default();
+        for delta in [0.0, 1e-9, 1e-7] {
+            for shift in [0.0, 0.3] {
+                let g = PortalGraph {
+                    cells: 3,
+                    convex_cells: false,
+                    portals: vec![
+                        GraphPortal {
+                            cells: [0, 1],
+                            pieces: vec![square(1.0, 0.0, 1.0, 0.0, 1.0)],
+                        },
+                        GraphPortal {
+                            cells: [1, 2],
+                            pieces: vec![square(1.0 + delta, shift, 1.0 + shift, 0.0, 1.0)],
+                        },
+                    ],
+                };
+                // The gap is below the tolerance.
+                assert!(delta < s.epsilon_rel * g.diagonal());
+                let pvs = compute(&g, &s);
+                assert!(pvs.sees(0, 2) && pvs.sees(2, 0), "delta {delta}, shift {shift}");
+                let base = compute(&g, &PvsSettings { base_only: true, ..s });
+                assert!(base.sees(0, 2) && base.sees(2, 0), "base: delta {delta}, shift {shift}");
+            }
+        }
+    }
 }

@@ -1,5 +1,5 @@
-//! Conservativeness by sampling: random points in each cell (fixed seed), random ray
-//! directions, first model polygon hit ([`RayCaster`]). A polygon hit from its front must
+//! Conservativeness by sampling: random points in each cell (fixed seed; uniform in the
+//! cell's convex pieces, by volume, however thin a piece is), random ray directions, first model polygon hit ([`RayCaster`]). A polygon hit from its front must
 //! face some cell of the point's cell's PVS; one that does not is a *false invisible* (the
 //! PVS would cull something a viewer sees). Hits on a polygon's back (only possible where
 //! the model is not closed, or from a point on the wrong side of a wall) are counted apart,
@@ -95,22 +95,66 @@ pub struct SampleReport {
     pub seconds: f64,
 }
 
-/// A uniform point strictly inside a convex polyhedron (rejection in its box; the centroid
-/// after 64 misses).
-fn point_in(poly: &crate::geom::ConvexPolyhedron, rng: &mut SplitMix64, margin: f64) -> P3 {
-    let (lo, hi) = poly.aabb();
-    let planes = poly.planes();
-    for _ in 0..64 {
-        let p = [
-            lo[0] + rng.unit() * (hi[0] - lo[0]),
-            lo[1] + rng.unit() * (hi[1] - lo[1]),
-            lo[2] + rng.unit() * (hi[2] - lo[2]),
-        ];
-        if planes.iter().all(|pl| pl.signed_distance(&p) < -margin) {
-            return p;
+/// The tetrahedra of a convex polyhedron fanned from its vertex mean (one per fan triangle
+/// of each face), with their volumes.
+fn tetrahedra(poly: &crate::geom::ConvexPolyhedron) -> (Vec<[P3; 4]>, Vec<f64>) {
+    use crate::base::vec::{cross, dot, sub};
+    let c = crate::base::vec::mean(&poly.vertices());
+    let mut tets = Vec::new();
+    let mut vols = Vec::new();
+    for f in &poly.faces {
+        let v = &f.verts;
+        for k in 1..v.len().saturating_sub(1) {
+            let (a, b, d) = (v[0], v[k], v[k + 1]);
+            let vol = dot(&sub(&a, &c), &cross(&sub(&b, &c), &sub(&d, &c))).abs() / 6.0;
+            if vol > 0.0 && vol.is_finite() {
+                tets.push([c, a, b, d]);
+                vols.push(vol);
+            }
         }
     }
-    poly.centroid()
+    (tets, vols)
+}
+
+/// A uniform point in a convex polyhedron: a tetrahedron of its fan ([`tetrahedra`]) by
+/// volume, then uniform barycentric coordinates in it (Rocchini & Cignoni's folding of the
+/// unit cube). A convex combination of the piece's vertices, so it lies in the piece however
+/// thin it is (no margin, no fallback to the centroid); the vertex mean when the fan has no
+/// volume at all.
+fn point_in(poly: &crate::geom::ConvexPolyhedron, rng: &mut SplitMix64) -> P3 {
+    let (tets, vols) = tetrahedra(poly);
+    let total: f64 = vols.iter().sum();
+    if tets.is_empty() || total <= 0.0 {
+        return crate::base::vec::mean(&poly.vertices());
+    }
+    let mut x = rng.unit() * total;
+    let mut k = 0;
+    while k + 1 < tets.len() && x >= vols[k] {
+        x -= vols[k];
+        k += 1;
+    }
+    let w = barycentric(rng.unit(), rng.unit(), rng.unit());
+    let t = &tets[k];
+    std::array::from_fn(|i| w[0] * t[0][i] + w[1] * t[1][i] + w[2] * t[2][i] + w[3] * t[3][i])
+}
+
+/// Uniform barycentric coordinates in a tetrahedron from three uniform numbers in [0, 1)
+/// (Rocchini & Cignoni 2000): non-negative, summing to 1.
+fn barycentric(mut s: f64, mut t: f64, mut u: f64) -> [f64; 4] {
+    if s + t > 1.0 {
+        s = 1.0 - s;
+        t = 1.0 - t;
+    }
+    if t + u > 1.0 {
+        let tmp = u;
+        u = 1.0 - s - t;
+        t = 1.0 - tmp;
+    } else if s + t + u > 1.0 {
+        let tmp = u;
+        u = s + t + u - 1.0;
+        s = 1.0 - t - tmp;
+    }
+    [(1.0 - s - t - u).max(0.0), s, t, u]
 }
 
 /// A uniform unit vector.
@@ -139,7 +183,6 @@ pub fn check(
     let t0 = Instant::now();
     let rc = RayCaster::new(model);
     let mut rng = SplitMix64(settings.seed);
-    let margin = cx.tol.weld_abs();
     // Which cells each polygon faces.
     let mut faces_of: Vec<Vec<u32>> = vec![Vec::new(); model.polygons.len()];
     for (c, ps) in polys.polygons.iter().enumerate() {
@@ -170,7 +213,7 @@ pub fn check(
                 x -= vols[k];
                 k += 1;
             }
-            let o = point_in(&cx.cells[ps[k].idx()].poly, &mut rng, margin);
+            let o = point_in(&cx.cells[ps[k].idx()].poly, &mut rng);
             rep.points += 1;
             for _ in 0..settings.rays_per_point {
                 let d = direction(&mut rng);
@@ -236,4 +279,59 @@ pub fn pieces_of_partition(partition: &crate::decimate::Partition) -> Vec<Vec<Ce
 /// [`super::PortalGraph::from_complex`].
 pub fn pieces_of_complex(cx: &CellComplex) -> Vec<Vec<CellId>> {
     cx.active_cells().map(|(c, _)| vec![c]).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::ConvexPolyhedron;
+
+    #[test]
+    fn barycentric_coordinates_are_a_partition_of_one() {
+        let mut rng = SplitMix64(7);
+        for _ in 0..1000 {
+            let w = barycentric(rng.unit(), rng.unit(), rng.unit());
+            assert!(w.iter().all(|&x| x >= 0.0), "{w:?}");
+            assert!((w.iter().sum::<f64>() - 1.0).abs() < 1e-12, "{w:?}");
+        }
+    }
+
+    /// A slab far thinner than any margin gets points spread over it, all inside (the old
+    /// sampler fell back to the centroid for every point of such a piece).
+    #[test]
+    fn thin_pieces_are_sampled_inside_and_spread() {
+        let h = 1e-9;
+        let poly = ConvexPolyhedron::cuboid(&[0.0, 0.0, 0.0], &[2.0, 1.0, h]);
+        let mut rng = SplitMix64(1);
+        let pts: Vec<P3> = (0..200).map(|_| point_in(&poly, &mut rng)).collect();
+        for p in &pts {
+            assert!((-1e-12..=2.0 + 1e-12).contains(&p[0]), "{p:?}");
+            assert!((-1e-12..=1.0 + 1e-12).contains(&p[1]), "{p:?}");
+            assert!((-1e-21..=h + 1e-21).contains(&p[2]), "{p:?}");
+        }
+        // Spread: both halves along x hold points, none is the centroid for all.
+        assert!(pts.iter().any(|p| p[0] < 0.5) && pts.iter().any(|p| p[0] > 1.5));
+        let mean_x = pts.iter().map(|p| p[0]).sum::<f64>() / pts.len() as f64;
+        assert!((mean_x - 1.0).abs() < 0.15, "uniform: mean x {mean_x}");
+    }
+
+    #[test]
+    fn points_of_a_tetrahedron_are_uniform() {
+        let poly =
+            ConvexPolyhedron::tetrahedron(&[0.0, 0.0, 0.0], &[1.0, 0.0, 0.0], &[0.0, 1.0, 0.0], &[0.0, 0.0, 1.0]);
+        let mut rng = SplitMix64(3);
+        let n = 4000;
+        let mut below = 0;
+        for _ in 0..n {
+            let p = point_in(&poly, &mut rng);
+            assert!(
+                p.iter().all(|&x| x >= -1e-15) && p.iter().sum::<f64>() <= 1.0 + 1e-12,
+                "{p:?}"
+            );
+            // The corner tetrahedron x + y + z < 1/2 holds 1/8 of the volume.
+            below += (p.iter().sum::<f64>() < 0.5) as usize;
+        }
+        let f = below as f64 / n as f64;
+        assert!((f - 0.125).abs() < 0.03, "fraction {f}");
+    }
 }

@@ -689,6 +689,9 @@ pub struct RepSummary {
     /// Mean windows passed per frame (portal pieces, or merged portals for the merged
     /// representations).
     pub mean_portals: f64,
+    /// Largest per frame.
+    #[serde(default)]
+    pub max_portals: u64,
     /// Mean cells drawn per frame (with repetitions).
     #[serde(default)]
     pub mean_cells: f64,
@@ -1120,6 +1123,7 @@ pub fn walkthrough(scene: &Scene, settings: &WalkSettings) -> (WalkReport, Vec<F
                 s.mean_triangles += f.rep_tris[k] as f64 / nf;
                 s.max_triangles = s.max_triangles.max(f.rep_tris[k]);
                 s.mean_portals += f.rep_portals[k] as f64 / nf;
+                s.max_portals = s.max_portals.max(f.rep_portals[k]);
                 s.mean_cells += f.rep_cells[k] as f64 / nf;
                 s.mean_overdraw += over as f64 / nf;
                 s.max_overdraw = s.max_overdraw.max(over);
@@ -1136,6 +1140,155 @@ pub fn walkthrough(scene: &Scene, settings: &WalkSettings) -> (WalkReport, Vec<F
         };
     }
     (rep, frames)
+}
+
+/// Renders one frame with representation `k` of [`REPS`].
+fn run_rep(r: &mut Renderer, base: &[usize], cam: &Camera, cell: u32, k: usize, ops: &mut Ops) -> Count {
+    match k {
+        0 => r.run::<ExactWindow>(base, cam, cell, None, ops),
+        1 => r.run::<RectWindow>(base, cam, cell, None, ops),
+        2 => r.run::<KgonWindow<4>>(base, cam, cell, None, ops),
+        3 => r.run::<KgonWindow<6>>(base, cam, cell, None, ops),
+        4 => r.run::<KgonWindow<8>>(base, cam, cell, None, ops),
+        5 => r.run::<HullWindow<false>>(base, cam, cell, None, ops),
+        6 => r.run::<HullWindow<true>>(base, cam, cell, None, ops),
+        7 => r.run::<MaskWindow<false>>(base, cam, cell, None, ops),
+        _ => r.run::<MaskWindow<true>>(base, cam, cell, None, ops),
+    }
+}
+
+/// Culling time of every window representation ([`REPS`]) along a walkthrough's frames,
+/// and the check that each is conservative triangle by triangle.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct CullTiming {
+    /// Repetitions: every frame was culled this many times by every representation.
+    pub repeat: usize,
+    /// Frames.
+    pub frames: usize,
+    /// Per frame and representation: the fastest of the repetitions, wall-clock seconds.
+    pub frame_seconds: Vec<[f64; NREPS]>,
+    /// Per repetition and representation: wall-clock seconds summed over all frames.
+    pub run_seconds: Vec<[f64; NREPS]>,
+    /// The same as `frame_seconds` in CPU seconds of the culling thread ([`thread_cpu`];
+    /// empty where the clock is not available). Less sensitive than wall-clock time to the
+    /// other processes of a shared machine (they still share its caches).
+    pub frame_cpu_seconds: Vec<[f64; NREPS]>,
+    /// The same as `run_seconds` in CPU seconds of the culling thread.
+    pub run_cpu_seconds: Vec<[f64; NREPS]>,
+    /// Per representation: frames where it did not draw some triangle the exact window
+    /// draws (0 for a conservative representation).
+    pub frames_missing: [usize; NREPS],
+    /// Per representation: such triangles, summed over frames.
+    pub triangles_missing: [u64; NREPS],
+}
+
+impl CullTiming {
+    /// Per representation: mean wall-clock seconds per frame of the fastest repetition (the
+    /// sum over frames of one whole repetition, divided by the frames).
+    pub fn per_frame_best(&self) -> [f64; NREPS] {
+        best(&self.run_seconds, self.frames)
+    }
+
+    /// Per representation: median over repetitions of the mean wall-clock seconds per frame.
+    pub fn per_frame_median(&self) -> [f64; NREPS] {
+        median(&self.run_seconds, self.frames)
+    }
+
+    /// [`CullTiming::per_frame_best`] in thread CPU seconds (`None` without the clock).
+    pub fn cpu_per_frame_best(&self) -> Option<[f64; NREPS]> {
+        (!self.run_cpu_seconds.is_empty()).then(|| best(&self.run_cpu_seconds, self.frames))
+    }
+
+    /// [`CullTiming::per_frame_median`] in thread CPU seconds (`None` without the clock).
+    pub fn cpu_per_frame_median(&self) -> Option<[f64; NREPS]> {
+        (!self.run_cpu_seconds.is_empty()).then(|| median(&self.run_cpu_seconds, self.frames))
+    }
+}
+
+fn best(runs: &[[f64; NREPS]], frames: usize) -> [f64; NREPS] {
+    let nf = frames.max(1) as f64;
+    std::array::from_fn(|k| runs.iter().map(|r| r[k]).fold(f64::INFINITY, f64::min) / nf)
+}
+
+fn median(runs: &[[f64; NREPS]], frames: usize) -> [f64; NREPS] {
+    let nf = frames.max(1) as f64;
+    std::array::from_fn(|k| {
+        let mut v: Vec<f64> = runs.iter().map(|r| r[k]).collect();
+        v.sort_by(f64::total_cmp);
+        v.get(v.len() / 2).copied().unwrap_or(0.0) / nf
+    })
+}
+
+/// CPU seconds consumed so far by the calling thread (`CLOCK_THREAD_CPUTIME_ID`; `None`
+/// where it is not available).
+pub fn thread_cpu() -> Option<f64> {
+    #[cfg(unix)]
+    {
+        let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+        // SAFETY: `ts` is a valid, writable timespec; the call only writes into it.
+        let r = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+        (r == 0).then_some(ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9)
+    }
+    #[cfg(not(unix))]
+    {
+        None
+    }
+}
+
+/// Culls every frame of `cams` with every representation, `repeat` times (at least once):
+/// the wall-clock and the thread CPU seconds of the culling itself (the window narrowing through the portal
+/// chain and the triangle tests; counting included, nothing drawn), interleaved — in each
+/// frame the representations run back to back, starting at a different one each frame and
+/// repetition, so a change of the machine's load spreads over all of them. The first
+/// repetition also checks, triangle by triangle, that each representation draws every
+/// triangle the exact window draws (an extra untimed exact run per frame).
+pub fn time_culling(scene: &Scene, cams: &[(Camera, u32)], repeat: usize) -> CullTiming {
+    let repeat = repeat.max(1);
+    let mut r = Renderer::new(scene);
+    let base = r.tri_base();
+    let mut t = CullTiming {
+        repeat,
+        frames: cams.len(),
+        frame_seconds: vec![[f64::INFINITY; NREPS]; cams.len()],
+        run_seconds: vec![[0.0; NREPS]; repeat],
+        ..Default::default()
+    };
+    let cpu = thread_cpu().is_some();
+    if cpu {
+        t.frame_cpu_seconds = vec![[f64::INFINITY; NREPS]; cams.len()];
+        t.run_cpu_seconds = vec![[0.0; NREPS]; repeat];
+    }
+    let mut exact_set: Vec<usize> = Vec::new();
+    let mut ops = Ops::default();
+    for round in 0..repeat {
+        for (f, &(cam, cell)) in cams.iter().enumerate() {
+            if round == 0 {
+                run_rep(&mut r, &base, &cam, cell, 0, &mut ops);
+                exact_set.clear();
+                exact_set.extend((0..r.stamp.len()).filter(|&i| r.stamp[i] == r.mark));
+            }
+            for j in 0..NREPS {
+                let k = (j + f + round) % NREPS;
+                let c0 = if cpu { thread_cpu() } else { None };
+                let t0 = Instant::now();
+                run_rep(&mut r, &base, &cam, cell, k, &mut ops);
+                let secs = t0.elapsed().as_secs_f64();
+                t.run_seconds[round][k] += secs;
+                t.frame_seconds[f][k] = t.frame_seconds[f][k].min(secs);
+                if let (Some(a), Some(b)) = (c0, thread_cpu()) {
+                    let c = (b - a).max(0.0);
+                    t.run_cpu_seconds[round][k] += c;
+                    t.frame_cpu_seconds[f][k] = t.frame_cpu_seconds[f][k].min(c);
+                }
+                if round == 0 {
+                    let missing = exact_set.iter().filter(|&&i| r.stamp[i] != r.mark).count() as u64;
+                    t.frames_missing[k] += (missing > 0) as usize;
+                    t.triangles_missing[k] += missing;
+                }
+            }
+        }
+    }
+    t
 }
 
 impl Scene<'_> {
