@@ -7,7 +7,12 @@ fn main() {
         Ok(m) => m,
         Err(e) => return println!("refused: {e}"),
     };
-    println!("{} vertices, {} polygons, scale {:e}", m.vertices.len(), m.polygons.len(), m.tolerances.scale);
+    println!(
+        "{} vertices, {} polygons, scale {:e}",
+        m.vertices.len(),
+        m.polygons.len(),
+        m.tolerances.scale
+    );
     let (cx, st) = portalfind::bsp::build_complex(&m);
     println!(
         "bsp: nodes {} splitting {} sealing {} leaves {} refused {} thin sealed {}",
