@@ -427,10 +427,7 @@ fn noisy_wall_sliver_is_a_membrane_not_a_leak() {
     cx.validate(&m).unwrap_or_else(|e| panic!("complex validate: {e}"));
     assert_eq!(cx.stats.leaks, 0, "{:?}", cx.leaks);
     assert_eq!(cx.stats.interior_regions, 1);
-    let thin_membranes = cx
-        .alive_cells()
-        .filter(|&(i, c)| !c.flat && cx.is_membrane(i))
-        .count();
+    let thin_membranes = cx.alive_cells().filter(|&(i, c)| !c.flat && cx.is_membrane(i)).count();
     assert!(thin_membranes > 0, "the sliver is still there, as a membrane");
     // Membranes are never graph nodes, so never active.
     for (i, _) in cx.active_cells() {
@@ -440,5 +437,9 @@ fn noisy_wall_sliver_is_a_membrane_not_a_leak() {
         assert!(!cx.is_membrane(p.cells[0]) && !cx.is_membrane(p.cells[1]));
     }
     // Within a few cells of the unmoved model (noise moves a few splits).
-    assert!(cx.stats.active_cells.abs_diff(unmoved) <= 8, "{} vs {unmoved}", cx.stats.active_cells);
+    assert!(
+        cx.stats.active_cells.abs_diff(unmoved) <= 8,
+        "{} vs {unmoved}",
+        cx.stats.active_cells
+    );
 }

@@ -527,14 +527,23 @@ impl Builder<'_> {
 /// The node's fragments `on` clipped onto the cut's `section` as occluders (the section's
 /// normal is the plane's, pointing into the front piece, `cells[1]`: a fragment whose front
 /// agrees faces side 1), and the indices of those that found no part there.
-fn section_occluders(on: &[Frag], section: &ConvexPolygon, plane: &Plane, tol: &Tolerances) -> (Vec<Occluder>, Vec<usize>) {
+fn section_occluders(
+    on: &[Frag],
+    section: &ConvexPolygon,
+    plane: &Plane,
+    tol: &Tolerances,
+) -> (Vec<Occluder>, Vec<usize>) {
     let (mut occ, mut unplaced) = (Vec::new(), Vec::new());
     for (i, f) in on.iter().enumerate() {
         match clip_onto(&f.poly, section, tol) {
             Some(o) => occ.push(Occluder {
                 polygon: o,
                 source: f.source,
-                faces: if dot(&f.poly.area_vector(), &plane.n) > 0.0 { 1 } else { 0 },
+                faces: if dot(&f.poly.area_vector(), &plane.n) > 0.0 {
+                    1
+                } else {
+                    0
+                },
             }),
             None => unplaced.push(i),
         }

@@ -55,7 +55,10 @@ impl CellComplex {
         };
         let pl = big.plane().normalized();
         let w = self.tol.sliver_width();
-        poly.faces.iter().flat_map(|f| f.verts.iter()).all(|v| pl.eval(v).abs() < w)
+        poly.faces
+            .iter()
+            .flat_map(|f| f.verts.iter())
+            .all(|v| pl.eval(v).abs() < w)
     }
 
     /// Uncovered pieces of a patch: its polygon minus all occluders on it (either side).
@@ -321,11 +324,7 @@ impl CellComplex {
             hull_open.entry(c).or_insert((Vec::new(), q));
         }
         for (pi, p) in self.patches.iter().enumerate() {
-            if p.alive
-                && p.cells[1] == HULL
-                && self.cells[p.cells[0].idx()].alive
-                && !self.is_membrane(p.cells[0])
-            {
+            if p.alive && p.cells[1] == HULL && self.cells[p.cells[0].idx()].alive && !self.is_membrane(p.cells[0]) {
                 let (pieces, _, _) = self.open_pieces(PatchId(pi as u32));
                 if let Some(q) = pieces.first() {
                     let q = q.centroid();
