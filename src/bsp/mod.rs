@@ -474,53 +474,47 @@ impl Builder<'_> {
         self.stats.fragments_consumed += on.len();
         let new_patch = cx.patches.len() as u32;
         let region = &cx.cells[c.idx()].poly;
-        let mut cut = region.cut(&plane, &tol, new_patch);
-        let mut clip_tol = tol;
-        // A region that straddles the plane but whose cut was refused as a sliver (section
-        // below the area tolerance, or a piece below the minimum volume) would leave the
-        // node's polygons crossing a leaf: cut it with the sealing thresholds, as the
-        // Delaunay path seals cracks. Slabs thinner than the weld distance stay refused.
-        if !matches!(cut, Cut::Split(_)) && region.classify(&plane, &tol) == Classification::Straddles {
+        // The cut with the normal tolerances, then (a region that straddles the plane but
+        // whose cut was refused as a sliver: section below the area tolerance, or a piece
+        // below the minimum volume) with the sealing thresholds, as the Delaunay path seals
+        // cracks; slabs thinner than the weld distance stay refused. A cut whose
+        // neighbours cannot subdivide their faces validly (`try_commit_split`: the plane
+        // crosses a neighbour's face where its vertices are a hair apart) is retried with
+        // the sealing thresholds; only the last candidate is committed anyway (a node's
+        // polygons must not cross a leaf), which `check_valid` then reports.
+        let mut cuts: Vec<(Cut, Tolerances)> = vec![(region.cut(&plane, &tol, new_patch), tol)];
+        if region.classify(&plane, &tol) == Classification::Straddles {
             let relaxed = tol.sealing();
-            if let s @ Cut::Split(_) = region.cut(&plane, &relaxed, new_patch) {
-                self.stats.sealing_cuts += 1;
-                cut = s;
-                clip_tol = relaxed;
-            }
+            cuts.push((region.cut(&plane, &relaxed, new_patch), relaxed));
         }
-        match cut {
-            Cut::Split(sp) => {
+        cuts.retain(|(c, _)| matches!(c, Cut::Split(_)));
+        let n_cuts = cuts.len();
+        for (k, (cut, clip_tol)) in cuts.into_iter().enumerate() {
+            let Cut::Split(sp) = cut else { continue };
+            let (occ, unplaced) = section_occluders(&on, &sp.section, &plane, &clip_tol);
+            let r = match cx.try_commit_split(c, &plane, (*sp).clone(), occ.clone()) {
+                Some(r) => Some(r),
+                None if k + 1 == n_cuts => Some(cx.commit_split(c, &plane, *sp, occ)),
+                None => None,
+            };
+            if let Some((fid, bid)) = r {
+                for i in unplaced {
+                    self.unplaced(&on[i]);
+                }
+                if clip_tol != tol {
+                    self.stats.sealing_cuts += 1;
+                }
                 self.stats.splitting_nodes += 1;
-                // The section's normal is the plane's, pointing into the front piece
-                // (`cells[1]`): a fragment whose front agrees faces side 1.
-                let mut occ = Vec::new();
-                for f in &on {
-                    match clip_onto(&f.poly, &sp.section, &clip_tol) {
-                        Some(o) => occ.push(Occluder {
-                            polygon: o,
-                            source: f.source,
-                            faces: if dot(&f.poly.area_vector(), &plane.n) > 0.0 {
-                                1
-                            } else {
-                                0
-                            },
-                        }),
-                        None => self.unplaced(f),
-                    }
-                }
-                let (fid, bid) = cx.commit_split(c, &plane, *sp, occ);
-                vec![(bid, back), (fid, front)]
-            }
-            Cut::Front | Cut::Back => {
-                for f in &on {
-                    if !attach_on_faces(cx, c, f, &plane) {
-                        self.unplaced(f);
-                    }
-                }
-                front.extend(back);
-                vec![(c, front)]
+                return vec![(bid, back), (fid, front)];
             }
         }
+        for f in &on {
+            if !attach_on_faces(cx, c, f, &plane) {
+                self.unplaced(f);
+            }
+        }
+        front.extend(back);
+        vec![(c, front)]
     }
 
     fn unplaced(&mut self, f: &Frag) {
@@ -528,6 +522,33 @@ impl Builder<'_> {
             self.stats.fragments_unplaced += 1;
         }
     }
+}
+
+/// The node's fragments `on` clipped onto the cut's `section` as occluders (the section's
+/// normal is the plane's, pointing into the front piece, `cells[1]`: a fragment whose front
+/// agrees faces side 1), and the indices of those that found no part there.
+fn section_occluders(
+    on: &[Frag],
+    section: &ConvexPolygon,
+    plane: &Plane,
+    tol: &Tolerances,
+) -> (Vec<Occluder>, Vec<usize>) {
+    let (mut occ, mut unplaced) = (Vec::new(), Vec::new());
+    for (i, f) in on.iter().enumerate() {
+        match clip_onto(&f.poly, section, tol) {
+            Some(o) => occ.push(Occluder {
+                polygon: o,
+                source: f.source,
+                faces: if dot(&f.poly.area_vector(), &plane.n) > 0.0 {
+                    1
+                } else {
+                    0
+                },
+            }),
+            None => unplaced.push(i),
+        }
+    }
+    (occ, unplaced)
 }
 
 /// `poly` clipped to `target` (coplanar with it up to tolerance), moved onto `target`'s

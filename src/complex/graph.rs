@@ -33,6 +33,34 @@ fn area_centroid(pieces: &[ConvexPolygon]) -> [f64; 3] {
 }
 
 impl CellComplex {
+    /// A cell that holds no space and is a membrane of the portal graph, not a node: a
+    /// flat tetrahedron ([`super::Cell::flat`]), or a **slab thinner than the sliver
+    /// width** — every vertex within [`crate::Tolerances::sliver_width`] of the plane of
+    /// its largest face (e.g. the wedge between the support planes of the two triangles of
+    /// one noisy floor quad). Such a cell is a crack: a path inside it, from where its
+    /// upper face is open to where its lower face is open, runs along a step narrower
+    /// than the sliver width that the portal graph would discard as a sliver if it were a
+    /// portal. So, like a flat tetrahedron, it only joins the cells on its two sides over
+    /// the overlap of their open faces (`through_flat`). Cells thinner than the sliver
+    /// width in two directions (needles) have faces below the area tolerance or narrower
+    /// than the sliver width, so their portals are slivers either way.
+    pub fn is_membrane(&self, c: CellId) -> bool {
+        let cell = &self.cells[c.idx()];
+        if cell.flat {
+            return true;
+        }
+        let poly = &cell.poly;
+        let Some(big) = poly.faces.iter().max_by(|a, b| a.area().total_cmp(&b.area())) else {
+            return false;
+        };
+        let pl = big.plane().normalized();
+        let w = self.tol.sliver_width();
+        poly.faces
+            .iter()
+            .flat_map(|f| f.verts.iter())
+            .all(|v| pl.eval(v).abs() < w)
+    }
+
     /// Uncovered pieces of a patch: its polygon minus all occluders on it (either side).
     /// Returns (pieces, slivers, sliver area).
     /// Pieces below the area tolerance or narrower than [`crate::Tolerances::sliver_width`]
@@ -64,6 +92,9 @@ impl CellComplex {
         let mut by_pair: HashMap<(CellId, CellId), usize> = HashMap::new();
         let mut portals: Vec<Portal> = Vec::new();
         let (mut slivers, mut sliver_area) = (0usize, 0.0f64);
+        let membrane: Vec<bool> = (0..self.cells.len())
+            .map(|i| self.cells[i].alive && self.is_membrane(CellId(i as u32)))
+            .collect();
         let mut add = |a: CellId, b: CellId, pieces: Vec<ConvexPolygon>| {
             // Orient from the smaller cell id to the larger.
             let (key, pieces) = if a < b {
@@ -95,13 +126,14 @@ impl CellComplex {
             let (pieces, s, sa) = self.open_pieces(PatchId(pi as u32));
             slivers += s;
             sliver_area += sa;
-            // A flat cell is a membrane, not a room: see `through_flat`.
-            if pieces.is_empty() || self.cells[a.idx()].flat || self.cells[b.idx()].flat {
+            // A membrane (flat or thinner than the sliver width) is not a room: see
+            // `through_flat`.
+            if pieces.is_empty() || membrane[a.idx()] || membrane[b.idx()] {
                 continue;
             }
             add(a, b, pieces);
         }
-        let (links, hull) = self.through_flat();
+        let (links, hull) = self.through_flat(&membrane);
         for (a, b, p) in links {
             add(a, b, vec![p]);
         }
@@ -111,18 +143,20 @@ impl CellComplex {
         self.stats.sliver_area = sliver_area;
     }
 
-    /// Portals across flat cells. A flat tetrahedron (four nearly coplanar input points)
+    /// Portals across membranes ([`CellComplex::is_membrane`]). A flat tetrahedron (four nearly coplanar input points)
     /// holds no space: the thesis (4.2.1) discards it, which glues its two sides together.
     /// As a node of the portal graph it would also join cells on the *same* side of it,
     /// through its zero-thickness body, e.g. the cells above and below a floor that meets
     /// the flat tetrahedron's plane. So it gets no portals of its own; instead each cell
     /// below it is joined to each cell above it over the overlap of their open faces
     /// (patch minus occluders on both sides), through stacks of flat cells if need be.
+    /// Cells thinner than the sliver width are treated the same way: a wedge between two
+    /// nearly coplanar occluders then conducts only where both of its sides are open.
     /// Returns the joins (oriented from the first cell to the second) and the cells that
     /// reach the hull this way, with a point there.
-    fn through_flat(&self) -> (Vec<Link>, Vec<(CellId, [f64; 3])>) {
+    fn through_flat(&self, membrane: &[bool]) -> (Vec<Link>, Vec<(CellId, [f64; 3])>) {
         let (mut links, mut hull) = (Vec::new(), Vec::new());
-        for (f, cell) in self.alive_cells().filter(|(_, c)| c.flat) {
+        for (f, cell) in self.alive_cells().filter(|(c, _)| membrane[c.idx()]) {
             let Some(n) = cell
                 .poly
                 .faces
@@ -134,11 +168,11 @@ impl CellComplex {
             };
             for (t, _) in self.flat_faces(f, n, false) {
                 let x = self.across(PatchId(t), f);
-                if x != HULL && self.cells[x.idx()].flat {
+                if x != HULL && membrane[x.idx()] {
                     continue;
                 }
                 let (open, _, _) = self.open_pieces(PatchId(t));
-                self.rise(f, n, &open, x, 0, &mut links, &mut hull);
+                self.rise(membrane, f, n, &open, x, 0, &mut links, &mut hull);
             }
         }
         (links, hull)
@@ -165,6 +199,7 @@ impl CellComplex {
     #[allow(clippy::too_many_arguments)]
     fn rise(
         &self,
+        membrane: &[bool],
         f: CellId,
         n: [f64; 3],
         region: &[ConvexPolygon],
@@ -195,9 +230,9 @@ impl CellComplex {
             if pieces.is_empty() || z == from {
                 continue;
             }
-            if z != HULL && self.cells[z.idx()].flat {
+            if z != HULL && membrane[z.idx()] {
                 if depth < 8 {
-                    self.rise(z, n, &pieces, from, depth + 1, links, hull);
+                    self.rise(membrane, z, n, &pieces, from, depth + 1, links, hull);
                 }
             } else if z == HULL {
                 if from != HULL {
@@ -289,8 +324,7 @@ impl CellComplex {
             hull_open.entry(c).or_insert((Vec::new(), q));
         }
         for (pi, p) in self.patches.iter().enumerate() {
-            if p.alive && p.cells[1] == HULL && self.cells[p.cells[0].idx()].alive && !self.cells[p.cells[0].idx()].flat
-            {
+            if p.alive && p.cells[1] == HULL && self.cells[p.cells[0].idx()].alive && !self.is_membrane(p.cells[0]) {
                 let (pieces, _, _) = self.open_pieces(PatchId(pi as u32));
                 if let Some(q) = pieces.first() {
                     let q = q.centroid();

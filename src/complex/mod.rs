@@ -31,8 +31,9 @@
 //!    side), gives convex portal pieces; pieces below the area tolerance or narrower than
 //!    [`Tolerances::sliver_width`] are slivers (cracks), counted and dropped. Pieces are
 //!    grouped per cell pair into [`Portal`]s. Flat cells (four nearly coplanar input
-//!    points) are membranes, not nodes: the cells below and above one are joined over
-//!    the overlap of their open faces.
+//!    points) and cells thinner than the sliver width are membranes, not nodes
+//!    ([`CellComplex::is_membrane`]): the cells below and above one are joined over the
+//!    overlap of their open faces.
 //! 6. **Exterior removal.** Connected regions of the portal graph where no cell faces an
 //!    occluder are removed (the outside; the inside of walls). Facing is in the crack
 //!    sense ([`CellComplex::faces_occluder`]): sliver occluders and cells thinner than the
