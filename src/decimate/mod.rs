@@ -41,9 +41,10 @@
 //! stuck out of the survivor's 3D hull; for `union`: unless it was enclosed), its side is
 //! *stale* — and, for the thesis's heuristics, it is re-weighed only when it reaches the
 //! front of the queue (lazy re-weighing, below). A stale side is recomputed incrementally
-//! when it is one merge behind (for `union`, the stored area plus what the absorbed cell's
-//! front faces add, [`estimator`]), else from scratch; the other side's stored area is
-//! reused. The test `incremental_projected_areas_equal_from_scratch_areas` checks every
+//! from the cell's version when it was computed (for `union`, the stored area plus what
+//! the front faces added since then add, [`estimator`]; `bbox` and `hull` recompute from
+//! their hulls), or from scratch when its cell was replaced (a pair of the absorbed cell
+//! re-keyed to the survivor); the other side's stored area is reused. The test `incremental_projected_areas_equal_from_scratch_areas` checks every
 //! recorded area against a from-scratch computation on the replayed state.
 //!
 //! # Lazy re-weighing
@@ -79,10 +80,10 @@
 //! most the next queued one (the reported `next_weight` is exact).
 //!
 //! **Where identity is tested.** The areas of a stale side are computed when the pair is
-//! popped, so after several merges instead of after each: incrementally (one merge behind)
-//! or from scratch (several). Their floating-point values may differ in the last bits from
-//! the eager chain of one-merge increments; rounded to 30 bits, weights differ only at
-//! rounding boundaries. The test `lazy_reweighing_makes_the_eager_decisions` therefore
+//! popped, so after several merges instead of after each: one increment over several
+//! merges instead of a chain of one-merge increments. Their floating-point values may
+//! differ in the last bits; rounded to 30 bits, weights differ only at rounding
+//! boundaries. The test `lazy_reweighing_makes_the_eager_decisions` therefore
 //! compares (1) lazy and eager with every stale side computed from scratch, where both
 //! compute the same function of the same state: identical steps (pairs, weights, areas
 //! bit for bit), stop and partition; and (2) the default lazy run against the eager one
@@ -487,12 +488,9 @@ struct Live<E: AreaEstimator> {
     volume: f64,
     shape: E::State,
     nbrs: DetMap<u32, u32>,
-    /// Merges that may have changed the shape's projections (`absorb` returned `true`).
+    /// Merges that may have changed the shape's projections (`absorb` returned `true`):
+    /// the version [`AreaEstimator::projected_area_grown`] grows from.
     ver: u32,
-    /// The version the estimator can grow an area from incrementally: `ver - 1` right
-    /// after a merge that changed the shape, `None` after one that did not (the
-    /// estimator's incremental state describes only the last merge).
-    grow_base: Option<u32>,
 }
 
 /// A pair side whose cell was replaced (the absorbed cell's pair re-keyed to the
@@ -527,7 +525,7 @@ pub(crate) struct Mode {
     /// [`Heuristic::monotone_in_projected_areas`]; otherwise every such pair is re-weighed
     /// at every merge (eagerly).
     pub lazy: bool,
-    /// Grow a stale side's area incrementally when it is exactly one merge behind
+    /// Grow a stale side's area incrementally from the version it was computed at
     /// ([`AreaEstimator::projected_area_grown`]); otherwise every refresh is from scratch.
     pub grown: bool,
 }
@@ -582,7 +580,6 @@ impl<'a, E: AreaEstimator> Engine<'a, E> {
                 shape: E::piece(&c.poly),
                 nbrs: DetMap::default(),
                 ver: 0,
-                grow_base: None,
             }));
         }
         let mut pairs = Vec::with_capacity(cx.portals.len());
@@ -690,8 +687,9 @@ impl<'a, E: AreaEstimator> Engine<'a, E> {
 
     /// Recomputes a pair's weight from its current inputs. `new_plane`: its portal set
     /// changed, so both areas are computed from scratch. Otherwise the plane is unchanged
-    /// and only stale sides are recomputed — grown incrementally when one merge behind
-    /// (and [`Mode::grown`]), else from scratch — and never below the stored area: the
+    /// and only stale sides are recomputed — grown incrementally from the version they
+    /// were computed at (with [`Mode::grown`], unless the side was replaced), else from
+    /// scratch — and never below the stored area: the
     /// cell only grew, so its exact projection only grew, and taking the maximum keeps
     /// the stored key a lower bound in floating point too (by construction, not by an
     /// error bound on the area computation).
@@ -714,8 +712,8 @@ impl<'a, E: AreaEstimator> Engine<'a, E> {
             let before = pr.projected[i];
             projected[i] = if new_plane {
                 clamp_area(E::projected_area(&c.shape, &frame))
-            } else if self.mode.grown && c.grow_base == Some(pr.ver[i]) {
-                clamp_area(E::projected_area_grown(&c.shape, &frame, before)).max(before)
+            } else if self.mode.grown && pr.ver[i] != REPLACED {
+                clamp_area(E::projected_area_grown(&c.shape, &frame, before, pr.ver[i])).max(before)
             } else {
                 clamp_area(E::projected_area(&c.shape, &frame)).max(before)
             };
@@ -843,9 +841,6 @@ impl<'a, E: AreaEstimator> Engine<'a, E> {
         let changed = E::absorb(&mut sc.shape, rc.shape);
         if changed {
             sc.ver += 1;
-            sc.grow_base = Some(sc.ver - 1);
-        } else {
-            sc.grow_base = None;
         }
         for &c in &rc.pieces {
             self.slot_of[c.idx()] = s;
@@ -1151,7 +1146,7 @@ mod tests {
     /// default stop and to the end.
     /// (1) With every stale side computed from scratch in both, the runs are identical:
     /// every step (pair, weight and areas bit for bit, cells left), the stop reason and
-    /// the partition. (2) The default (lazy, incremental when one merge behind) against
+    /// the partition. (2) The default (lazy, incremental over several merges) against
     /// eager with increments (the engine before lazy re-weighing): as many steps, weights
     /// equal to 1e-9 relative, the same partition. And lazy computes fewer weights.
     #[test]
