@@ -134,7 +134,7 @@ impl Queue {
     /// stale keys from the front).
     pub fn parked_sorted(&self) -> Vec<(u32, Key)> {
         let mut v: Vec<(u32, Key)> = self.parked.iter().map(|(&p, &k)| (p, k)).collect();
-        v.sort_unstable_by(|a, b| a.1.cmp(&b.1));
+        v.sort_unstable_by_key(|a| a.1);
         v
     }
 }
