@@ -10,8 +10,10 @@
 //! three estimators, each cell's state built by folding its pieces with the estimator's
 //! own `piece`/`absorb`; the relative error of `bbox` and `hull` against `union`.
 //!
-//! `cargo run --release --example estimators_e1m1 -- [MODEL] [HEURISTIC] [PAIRS]`
-//! (defaults: `models/quake/e1m1.obj aspect 300`). Prints a Markdown report.
+//! `cargo run --release --example estimators_e1m1 -- [--csv FILE] [--heuristic H] [--pairs N] [MODEL…]`
+//! (defaults: `aspect`, 300, `models/quake/e1m1.obj`). Prints a Markdown report per model
+//! (the errors also on the initial pairs alone, the partition before any collapse) and
+//! writes one CSV row per model and estimator.
 
 use portalfind::complex::CellComplex;
 use portalfind::decimate::estimator::{AreaEstimator, Bbox, Hull, Union};
@@ -48,25 +50,46 @@ fn quantile(xs: &mut [f64], q: f64) -> f64 {
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    let model = args.get(1).map(String::as_str).unwrap_or("models/quake/e1m1.obj");
-    let h: HeuristicKind = args
-        .get(2)
-        .map(|s| s.parse().expect("heuristic"))
-        .unwrap_or(HeuristicKind::Aspect);
-    let pairs: usize = args.get(3).map(|s| s.parse().expect("pairs")).unwrap_or(300);
+    // `[--csv FILE] [--heuristic H] [--pairs N] [MODEL…]`
+    let mut args = std::env::args().skip(1);
+    let (mut csv, mut h, mut pairs, mut models) = (None, HeuristicKind::Aspect, 300usize, Vec::new());
+    while let Some(a) = args.next() {
+        match a.as_str() {
+            "--csv" => csv = args.next(),
+            "--heuristic" => h = args.next().expect("heuristic").parse().expect("heuristic"),
+            "--pairs" => pairs = args.next().expect("pairs").parse().expect("pairs"),
+            _ => models.push(a),
+        }
+    }
+    if models.is_empty() {
+        models.push("models/quake/e1m1.obj".to_string());
+    }
+    let mut rows = vec![
+        "model,heuristic,estimator,collapses,final_cells,final_portal_pairs,common_prefix,same_final_cells,collapse_seconds,samples,rel_error_median,rel_error_p90,rel_error_max,signed_error_median,initial_rel_error_median,initial_rel_error_p90".to_string(),
+    ];
+    for model in &models {
+        rows.extend(one_model(model, h, pairs));
+    }
+    if let Some(path) = csv {
+        std::fs::write(&path, rows.join("\n") + "\n").expect("write csv");
+        println!("\nwrote {path}");
+    }
+}
+
+/// The report for one model; returns its CSV rows.
+fn one_model(model: &str, h: HeuristicKind, pairs: usize) -> Vec<String> {
     let m = portalfind::model::load_model(Path::new(model)).expect("model");
     let cx = portalfind::pipeline::complex_of_unchecked(&m).expect("complex");
     let stop = h.default_stop();
 
     println!(
-        "Model `{model}`, heuristic `{h}`, stop `{stop}`, {} active cells.\n",
+        "## `{model}`\n\nHeuristic `{h}`, stop `{stop}`, {} active cells.\n",
         cx.active_cells().count()
     );
     println!(
-        "| estimator | collapses | final cells | final portal pairs | common prefix with union (collapses) | collapse seconds |"
+        "| estimator | collapses | final cells | final portal pairs | common prefix with union (collapses) | final cells equal to a union-run cell | collapse seconds |"
     );
-    println!("|---|---:|---:|---:|---:|---:|");
+    println!("|---|---:|---:|---:|---:|---:|---:|");
     let runs: Vec<(Estimator, Decimation)> = Estimator::ALL
         .iter()
         .map(|&e| {
@@ -80,6 +103,7 @@ fn main() {
         })
         .collect();
     let union = &runs.iter().find(|r| r.0 == Estimator::Union).expect("union").1;
+    let mut decided = Vec::new();
     for (e, d) in &runs {
         let common = d
             .steps
@@ -87,18 +111,41 @@ fn main() {
             .zip(&union.steps)
             .take_while(|(a, b)| (a.a, a.b) == (b.a, b.b))
             .count();
+        let portals = d.partition.portals(&cx).len();
+        // Final cells that are also final cells of the union run (the same pieces).
+        let same = d
+            .partition
+            .cells
+            .iter()
+            .filter(|c| {
+                union
+                    .partition
+                    .cell_of(c.id)
+                    .is_some_and(|i| union.partition.cells[i].pieces == c.pieces)
+            })
+            .count();
         println!(
-            "| {e} | {} | {} | {} | {common} | {:.2} |",
+            "| {e} | {} | {} | {portals} | {common} | {same} | {:.2} |",
             d.steps.len(),
             d.partition.len(),
-            d.partition.portals(&cx).len(),
             d.stats.collapse_seconds
         );
+        decided.push((
+            *e,
+            d.steps.len(),
+            d.partition.len(),
+            portals,
+            common,
+            same,
+            d.stats.collapse_seconds,
+        ));
     }
 
     // Errors on the union run's partitions.
     let mut rel: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
     let mut signed: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
+    // The initial pairs alone (the partition before any collapse).
+    let mut initial: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
     let mut rng = portalfind::base::rng::SplitMix64(17);
     let n = union.steps.len();
     for tenth in 0..=10 {
@@ -134,6 +181,9 @@ fn main() {
                 for (k, a) in est.iter().enumerate() {
                     rel[k].push((a - exact).abs() / exact);
                     signed[k].push((a - exact) / exact);
+                    if tenth == 0 {
+                        initial[k].push((a - exact).abs() / exact);
+                    }
                 }
             }
         }
@@ -142,16 +192,33 @@ fn main() {
         "\nRelative error against `union` ({} cell measurements: both cells of up to {pairs} sampled portal pairs on each of the union run's partitions after 0, 10, …, 100 % of its collapses):\n",
         rel[0].len()
     );
-    println!("| estimator | relative error median | p90 | max | signed median |");
-    println!("|---|---:|---:|---:|---:|");
-    for (k, name) in ["bbox", "hull"].iter().enumerate() {
+    println!("| estimator | relative error median | p90 | max | signed median | initial pairs only: median | p90 |");
+    println!("|---|---:|---:|---:|---:|---:|---:|");
+    let mut rows = Vec::new();
+    for (e, collapses, cells, portals, common, same, secs) in decided {
+        let k = match e {
+            Estimator::Bbox => 0,
+            Estimator::Hull => 1,
+            Estimator::Union => {
+                rows.push(format!(
+                    "{model},{h},{e},{collapses},{cells},{portals},{common},{same},{secs:.3},,,,,,,"
+                ));
+                continue;
+            }
+        };
         let max = rel[k].iter().copied().fold(0.0, f64::max);
-        println!(
-            "| {name} | {:.4} | {:.4} | {:.4} | {:+.4} |",
+        let (med, p90, smed) = (
             quantile(&mut rel[k], 0.5),
             quantile(&mut rel[k], 0.9),
-            max,
-            quantile(&mut signed[k], 0.5)
+            quantile(&mut signed[k], 0.5),
         );
+        let (imed, ip90) = (quantile(&mut initial[k], 0.5), quantile(&mut initial[k], 0.9));
+        println!("| {e} | {med:.4} | {p90:.4} | {max:.4} | {smed:+.4} | {imed:.4} | {ip90:.4} |");
+        rows.push(format!(
+            "{model},{h},{e},{collapses},{cells},{portals},{common},{same},{secs:.3},{},{med},{p90},{max},{smed},{imed},{ip90}",
+            rel[k].len()
+        ));
     }
+    println!();
+    rows
 }

@@ -34,17 +34,62 @@
 //!
 //! Collapsing `A` and `B` (survivor: the one with more pieces; the other's pieces are
 //! relabelled, so relabelling is `O(n log n)` over a run): the absorbed cell's pairs are
-//! re-keyed or fused into the survivor's (`O(deg B)`), the estimator states are merged,
-//! and only pairs whose inputs changed are re-weighed: the pairs that gained portals, and
-//! the survivor's other pairs *only if* its estimator state changed (for `bbox` and
-//! `hull`: only if the absorbed cell stuck out of the survivor's 3D hull) or the heuristic
-//! uses volumes. Pairs whose inputs did not change would get bit-identical weights, so
-//! skipping them changes nothing. A re-weighed pair recomputes only the projected areas
-//! whose inputs changed: both sides when its portal set (so its plane) changed; otherwise
-//! only the survivor's — for `union` incrementally, as the stored area plus what the
-//! absorbed cell's front faces add ([`estimator`]) — and the neighbour's stored area is reused.
-//! The test `incremental_projected_areas_equal_from_scratch_areas` checks every recorded
-//! area against a from-scratch computation on the replayed state.
+//! re-keyed or fused into the survivor's (`O(deg B)`), the estimator states are merged.
+//! Only pairs whose portal set changed (fused) are weighed at once, both sides from
+//! scratch (a new plane). Every other pair of the survivor keeps its plane; if the
+//! survivor's estimator state changed (for `bbox` and `hull`: only if the absorbed cell
+//! stuck out of the survivor's 3D hull; for `union`: unless it was enclosed), its side is
+//! *stale* — and, for the thesis's heuristics, it is re-weighed only when it reaches the
+//! front of the queue (lazy re-weighing, below). A stale side is recomputed incrementally
+//! from the cell's version when it was computed (for `union`, the stored area plus what
+//! the front faces added since then add, [`estimator`]; `bbox` and `hull` recompute from
+//! their hulls), or from scratch when its cell was replaced (a pair of the absorbed cell
+//! re-keyed to the survivor); the other side's stored area is reused. The test `incremental_projected_areas_equal_from_scratch_areas` checks every
+//! recorded area against a from-scratch computation on the replayed state.
+//!
+//! # Lazy re-weighing
+//!
+//! **Claim.** For a heuristic monotone in the projected areas
+//! ([`Heuristic::monotone_in_projected_areas`]: `aspect`, `refined`, `volume`), a pair's
+//! queued key is at most the key it would have if re-weighed now, so popping the lowest
+//! queued key and re-weighing it if stale (queueing it again, then peeking again) pops the
+//! same pair, with the same weight, as re-weighing every pair at every merge.
+//!
+//! **Proof.** A pair `{X, N}` keeps its plane while its portal set is unchanged. When `X`
+//! absorbs `R`, `proj(X ∪ R) = proj(X) ∪ proj(R) ⊇ proj(X)` on every plane, so `X`'s exact
+//! projected area does not decrease; for `bbox` and `hull` the projection of the merged
+//! hull contains the old one likewise. A pair of `R` re-keyed to the survivor keeps its
+//! plane too, and its stored area (`R`'s) is at most the survivor's. In floating point the
+//! engine enforces this: a recomputed stale side is the maximum of its stored and its
+//! computed area (exact arithmetic: the computed one). The weight is monotone in the
+//! areas, the portal area is unchanged, and the volumes are taken current when the stale
+//! key is written (`Engine::bound`: the weight of the stored areas and current volumes),
+//! and rounding to [`heuristic::WEIGHT_BITS`] rounds down, which is monotone; so the
+//! queued weight is at most the current one. The rest of the key (the smaller volume, the
+//! names) is rewritten at every merge for every pair of the survivor, so it is current.
+//! Hence every queued key is at most the pair's current key, with equality for pairs that
+//! are not stale. Keys are distinct (they end with the two cell names). If the lowest
+//! queued key belongs to a pair that is not stale, it is its current key, and every other
+//! pair's current key is at least its queued key, which is larger: it is the pair the
+//! eager order pops. If it belongs to a stale pair, re-weighing it makes it exact and
+//! changes no other key. Weights never depend on the order of re-weighing, since each is
+//! computed from the current state — which is the same in both orders, by induction over
+//! the collapses. With a `threshold` stop, pairs whose queued key is at or above the
+//! threshold are parked ([`queue`]); their current keys are too, and when the heap runs dry
+//! the parked pairs are re-weighed in key order until the lowest exact key found is at
+//! most the next queued one (the reported `next_weight` is exact).
+//!
+//! **Where identity is tested.** The areas of a stale side are computed when the pair is
+//! popped, so after several merges instead of after each: one increment over several
+//! merges instead of a chain of one-merge increments. Their floating-point values may
+//! differ in the last bits; rounded to 30 bits, weights differ only at rounding
+//! boundaries. The test `lazy_reweighing_makes_the_eager_decisions` therefore
+//! compares (1) lazy and eager with every stale side computed from scratch, where both
+//! compute the same function of the same state: identical steps (pairs and weights bit
+//! for bit; areas to 1e-12, since a refreshed area is the maximum of evaluations made at
+//! different times, which can differ in the last bit: the generated four rooms' `16.8` against
+//! `16.799999999999997`), stop and partition; and (2) the default lazy run against the eager one
+//! with increments: as many steps, the same weights to 1e-9 relative, the same partition.
 //!
 //! # The "most weights are about 1" observation (thesis 5.1)
 //!
@@ -449,7 +494,14 @@ struct Live<E: AreaEstimator> {
     volume: f64,
     shape: E::State,
     nbrs: DetMap<u32, u32>,
+    /// Merges that may have changed the shape's projections (`absorb` returned `true`):
+    /// the version [`AreaEstimator::projected_area_grown`] grows from.
+    ver: u32,
 }
+
+/// A pair side whose cell was replaced (the absorbed cell's pair re-keyed to the
+/// survivor): its stored area is the absorbed cell's, a lower bound of the survivor's.
+const REPLACED: u32 = u32::MAX;
 
 struct Pair {
     s: [u32; 2],
@@ -461,20 +513,37 @@ struct Pair {
     largest: (f64, P3, P3),
     weight: f64,
     projected: [f64; 2],
+    /// Per side, the cell's [`Live::ver`] when `projected` was computed ([`REPLACED`]:
+    /// another cell's). A side is *stale* when this differs from the cell's current
+    /// version: its stored area is then a lower bound (the cell only grew since).
+    ver: [u32; 2],
     /// The key it is queued with.
     key: Option<Key>,
     alive: bool,
 }
 
-/// How a side's projected area is obtained when re-weighing a pair.
+/// How the engine re-weighs the pairs of a grown cell (identical decisions either way, for
+/// heuristics monotone in the projected areas; see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Side {
-    /// Computed from scratch.
-    Full,
-    /// The cell absorbed another on an unchanged plane: grown from the stored value.
-    Grown,
-    /// Neither the cell nor the plane changed: the stored value is exact.
-    Valid,
+pub(crate) struct Mode {
+    /// Re-weigh a pair whose cell grew only when it reaches the front of the queue (its
+    /// stored key, from the older areas, is a lower bound). Requires
+    /// [`Heuristic::monotone_in_projected_areas`]; otherwise every such pair is re-weighed
+    /// at every merge (eagerly).
+    pub lazy: bool,
+    /// Grow a stale side's area incrementally from the version it was computed at
+    /// ([`AreaEstimator::projected_area_grown`]); otherwise every refresh is from scratch.
+    pub grown: bool,
+}
+
+impl Mode {
+    /// What [`Decimation::run`] uses: lazy for monotone heuristics, incremental growth.
+    pub(crate) fn default_for(h: &dyn Heuristic) -> Self {
+        Mode {
+            lazy: h.monotone_in_projected_areas(),
+            grown: true,
+        }
+    }
 }
 
 /// A projected area as the heuristics see it: finite and `>= 0`.
@@ -495,10 +564,16 @@ struct Engine<'a, E: AreaEstimator> {
     stats: DecimationStats,
     area_floor: f64,
     vol_floor: f64,
+    mode: Mode,
 }
 
 impl<'a, E: AreaEstimator> Engine<'a, E> {
-    fn new(cx: &'a CellComplex, settings: Settings) -> Self {
+    fn new(cx: &'a CellComplex, settings: Settings, mode: Mode) -> Self {
+        // Lazy re-weighing is exact only for heuristics monotone in the projected areas.
+        let mode = Mode {
+            lazy: mode.lazy && settings.heuristic.heuristic().monotone_in_projected_areas(),
+            ..mode
+        };
         debug_assert_eq!(settings.estimator.name(), E::NAME);
         let mut slot_of = vec![u32::MAX; cx.cells.len()];
         let mut live = Vec::new();
@@ -510,6 +585,7 @@ impl<'a, E: AreaEstimator> Engine<'a, E> {
                 volume: c.poly.volume(),
                 shape: E::piece(&c.poly),
                 nbrs: DetMap::default(),
+                ver: 0,
             }));
         }
         let mut pairs = Vec::with_capacity(cx.portals.len());
@@ -543,6 +619,7 @@ impl<'a, E: AreaEstimator> Engine<'a, E> {
                 largest,
                 weight: 0.0,
                 projected: [0.0; 2],
+                ver: [0; 2],
                 key: None,
                 alive: true,
             });
@@ -572,6 +649,7 @@ impl<'a, E: AreaEstimator> Engine<'a, E> {
             stats,
             area_floor: cx.tol.area_abs(),
             vol_floor: min_volume(&cx.tol),
+            mode,
         }
     }
 
@@ -591,21 +669,17 @@ impl<'a, E: AreaEstimator> Engine<'a, E> {
         }
     }
 
-    /// Recomputes a pair's weight from its current inputs; `how` says, per side, whether
-    /// its projected area is recomputed, grown incrementally, or still valid.
-    fn weigh(&mut self, p: u32, how: [Side; 2]) {
+    /// Whether a side of pair `p` is stale (its cell grew since its area was computed).
+    fn is_stale(&self, p: u32) -> bool {
         let pr = &self.pairs[p as usize];
-        let n = mean_normal(&pr.av, pr.area, &pr.largest.1);
-        let frame = Frame::new(n, pr.largest.2)
-            .or_else(|| Frame::new([0.0, 0.0, 1.0], pr.largest.2))
-            .expect("unit z frame");
+        (0..2).any(|i| pr.ver[i] != self.cell(pr.s[i]).ver)
+    }
+
+    /// The heuristic's weight of pair `p` with the given projected areas and the cells'
+    /// current volumes and piece counts.
+    fn weight_with(&self, p: u32, projected: [f64; 2]) -> f64 {
+        let pr = &self.pairs[p as usize];
         let (c0, c1) = (self.cell(pr.s[0]), self.cell(pr.s[1]));
-        let side = |c: &Live<E>, how: Side, before: f64| match how {
-            Side::Full => clamp_area(E::projected_area(&c.shape, &frame)),
-            Side::Grown => clamp_area(E::projected_area_grown(&c.shape, &frame, before)),
-            Side::Valid => before,
-        };
-        let projected = [side(c0, how[0], pr.projected[0]), side(c1, how[1], pr.projected[1])];
         let ctx = PairContext {
             portal_area: pr.area.max(self.area_floor),
             projected,
@@ -614,16 +688,62 @@ impl<'a, E: AreaEstimator> Engine<'a, E> {
             peaks: [0.0, 0.0],
             saddle: 0.0,
         };
-        let w = heuristic::sanitize(self.h.weight(&ctx));
+        heuristic::sanitize(self.h.weight(&ctx))
+    }
+
+    /// Recomputes a pair's weight from its current inputs. `new_plane`: its portal set
+    /// changed, so both areas are computed from scratch. Otherwise the plane is unchanged
+    /// and only stale sides are recomputed — grown incrementally from the version they
+    /// were computed at (with [`Mode::grown`], unless the side was replaced), else from
+    /// scratch — and never below the stored area: the
+    /// cell only grew, so its exact projection only grew, and taking the maximum keeps
+    /// the stored key a lower bound in floating point too (by construction, not by an
+    /// error bound on the area computation).
+    fn weigh(&mut self, p: u32, new_plane: bool) {
+        let pr = &self.pairs[p as usize];
+        let mut projected = pr.projected;
+        let mut ver = pr.ver;
+        let mut frame = None;
+        for i in 0..2 {
+            let c = self.cell(pr.s[i]);
+            if !new_plane && pr.ver[i] == c.ver {
+                continue;
+            }
+            let frame = *frame.get_or_insert_with(|| {
+                let n = mean_normal(&pr.av, pr.area, &pr.largest.1);
+                Frame::new(n, pr.largest.2)
+                    .or_else(|| Frame::new([0.0, 0.0, 1.0], pr.largest.2))
+                    .expect("unit z frame")
+            });
+            let before = pr.projected[i];
+            projected[i] = if new_plane {
+                clamp_area(E::projected_area(&c.shape, &frame))
+            } else if self.mode.grown && pr.ver[i] != REPLACED {
+                clamp_area(E::projected_area_grown(&c.shape, &frame, before, pr.ver[i])).max(before)
+            } else {
+                clamp_area(E::projected_area(&c.shape, &frame)).max(before)
+            };
+            ver[i] = c.ver;
+        }
+        let w = self.weight_with(p, projected);
         let pr = &mut self.pairs[p as usize];
         pr.weight = w;
         pr.projected = projected;
+        pr.ver = ver;
         self.stats.weights_computed += 1;
+    }
+
+    /// A lower bound of pair `p`'s current weight without computing an area: the weight
+    /// from its stored areas (lower bounds of the current ones) and the cells' current
+    /// volumes. Exact when no side is stale.
+    fn bound(&mut self, p: u32) {
+        let w = self.weight_with(p, self.pairs[p as usize].projected);
+        self.pairs[p as usize].weight = w;
     }
 
     fn init_weights(&mut self) {
         for p in 0..self.pairs.len() as u32 {
-            self.weigh(p, [Side::Full; 2]);
+            self.weigh(p, true);
             self.requeue(p);
         }
     }
@@ -636,6 +756,25 @@ impl<'a, E: AreaEstimator> Engine<'a, E> {
             pr.key = Some(k);
             self.queue.set(p, k);
         }
+    }
+
+    /// The lowest exact key among the parked pairs (every parked key, exact or a lower
+    /// bound, is at or above the threshold): stale ones are weighed in key order until the
+    /// lowest exact key found is at most the next stored key.
+    fn parked_min(&mut self) -> Option<Key> {
+        let mut best: Option<Key> = None;
+        for (p, k) in self.queue.parked_sorted() {
+            if best.is_some_and(|b| b <= k) {
+                break;
+            }
+            if self.is_stale(p) {
+                self.weigh(p, false);
+                self.requeue(p);
+            }
+            let k = self.key(p);
+            best = Some(best.map_or(k, |b| b.min(k)));
+        }
+        best
     }
 
     /// Collapses pair `p`; returns the step.
@@ -694,19 +833,21 @@ impl<'a, E: AreaEstimator> Engine<'a, E> {
                 }
                 touched.push(t);
             } else {
+                // Same portal set, so the same plane; the side that was `r` now holds its
+                // area, a lower bound of the survivor's.
                 let qq = &mut self.pairs[q as usize];
-                if qq.s[0] == r {
-                    qq.s[0] = s;
-                } else {
-                    qq.s[1] = s;
-                }
+                let i = usize::from(qq.s[0] != r);
+                qq.s[i] = s;
+                qq.ver[i] = REPLACED;
                 sc.nbrs.insert(xn, q);
                 nb.nbrs.insert(s, q);
-                touched.push(q);
             }
         }
         // Merge cells.
         let changed = E::absorb(&mut sc.shape, rc.shape);
+        if changed {
+            sc.ver += 1;
+        }
         for &c in &rc.pieces {
             self.slot_of[c.idx()] = s;
         }
@@ -721,21 +862,22 @@ impl<'a, E: AreaEstimator> Engine<'a, E> {
         };
         self.live[s as usize] = Some(sc);
         self.live_count -= 1;
-        let reweigh_all = changed || self.h.uses_volume();
         touched.sort_unstable();
         for &q in &all {
             if touched.binary_search(&q).is_ok() {
                 // New portal set, so a new plane: both sides from scratch.
-                self.weigh(q, [Side::Full; 2]);
-            } else if reweigh_all {
-                // Same plane; the neighbour did not change, the survivor grew.
-                let mine = if changed { Side::Grown } else { Side::Valid };
-                let how = if self.pairs[q as usize].s[0] == s {
-                    [mine, Side::Valid]
+                self.weigh(q, true);
+            } else if self.is_stale(q) {
+                // Same plane, a side grew: its stored area is a lower bound.
+                if self.mode.lazy {
+                    self.bound(q);
                 } else {
-                    [Side::Valid, mine]
-                };
-                self.weigh(q, how);
+                    self.weigh(q, false);
+                }
+            } else if self.h.uses_volume() {
+                // Same areas, new volumes: exact without computing an area.
+                self.bound(q);
+                self.stats.weights_computed += 1;
             } else {
                 self.stats.reweighs_skipped += 1;
             }
@@ -768,7 +910,7 @@ impl<'a, E: AreaEstimator> Engine<'a, E> {
                 break StopReason::Cells { target: n };
             }
             let Some((p, k)) = self.queue.peek() else {
-                break match (self.settings.stop, self.queue.parked_min()) {
+                break match (self.settings.stop, self.parked_min()) {
                     (StopRule::Threshold(t), Some(m)) => StopReason::Threshold {
                         threshold: t,
                         next_weight: m.w,
@@ -776,6 +918,13 @@ impl<'a, E: AreaEstimator> Engine<'a, E> {
                     _ => StopReason::Exhausted,
                 };
             };
+            if self.is_stale(p) {
+                // A lower bound at the front: weigh it and queue it again (if it is
+                // still the lowest, the next peek returns it, exact).
+                self.weigh(p, false);
+                self.requeue(p);
+                continue;
+            }
             if let StopRule::Threshold(t) = self.settings.stop
                 && k.w >= t
             {
@@ -843,7 +992,8 @@ impl Decimation {
         impl WithEstimator for Run<'_, '_> {
             type Output = Decimation;
             fn call<E: AreaEstimator>(self) -> Decimation {
-                Engine::<E>::new(self.cx, self.settings).run(self.progress)
+                let mode = Mode::default_for(self.settings.heuristic.heuristic());
+                Engine::<E>::new(self.cx, self.settings, mode).run(self.progress)
             }
         }
         if settings.heuristic.heuristic().engine() == HeuristicEngine::Clearance {
@@ -853,6 +1003,27 @@ impl Decimation {
             cx,
             settings: *settings,
             progress,
+        })
+    }
+
+    /// The run with an explicit re-weighing [`Mode`] (tests compare lazy and eager).
+    #[cfg(test)]
+    pub(crate) fn run_with_mode(cx: &CellComplex, settings: &Settings, mode: Mode) -> Decimation {
+        struct Run<'c> {
+            cx: &'c CellComplex,
+            settings: Settings,
+            mode: Mode,
+        }
+        impl WithEstimator for Run<'_> {
+            type Output = Decimation;
+            fn call<E: AreaEstimator>(self) -> Decimation {
+                Engine::<E>::new(self.cx, self.settings, self.mode).run(&mut |_, _| {})
+            }
+        }
+        settings.estimator.with(Run {
+            cx,
+            settings: *settings,
+            mode,
         })
     }
 
@@ -952,5 +1123,147 @@ impl Decimation {
             ga.extend(gb);
         }
         Ok(Partition::from_groups(cx, groups.into_iter().flatten().collect()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn thesis(name: &str) -> CellComplex {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("models/thesis/{name}.obj"));
+        let m = crate::model::load_model(&path).expect("thesis model");
+        crate::pipeline::complex_of_unchecked(&m).expect("complex")
+    }
+
+    fn soup(name: &str, s: crate::generate::scenes::Soup) -> CellComplex {
+        let m = crate::model::from_soup(name, s.vertices, s.polygons).expect("model");
+        crate::pipeline::complex_of_unchecked(&m).expect("complex")
+    }
+
+    /// Lazy re-weighing (a stale pair re-weighed only when it reaches the front of the
+    /// queue) makes the decisions of eager re-weighing (every stale pair re-weighed at
+    /// every merge), see "Lazy re-weighing" in the module docs: on thesis models and
+    /// generated scenes, for the three thesis heuristics and the three estimators, at the
+    /// default stop and to the end.
+    /// (1) With every stale side computed from scratch in both, the runs are identical:
+    /// every step (pair, weight bit for bit, cells left, portal area; the areas to 1e-12,
+    /// as a refreshed area is the maximum of its evaluations, which may differ in the last
+    /// bit between times), the stop reason and the partition. (2) The default (lazy, incremental over several merges) against
+    /// eager with increments (the engine before lazy re-weighing): as many steps, weights
+    /// equal to 1e-9 relative, the same partition. And lazy computes fewer weights.
+    #[test]
+    fn lazy_reweighing_makes_the_eager_decisions() {
+        let (grid, _) = crate::generate::scenes::room_grid(2, 2, 2);
+        let cases = vec![
+            (
+                "four_rooms (generated)",
+                soup("four_rooms", crate::generate::four_rooms::four_rooms()),
+            ),
+            ("room_grid 2x2 (generated)", soup("grid", grid)),
+            ("four_room_tessellated", thesis("four_room_tessellated")),
+            ("four_room_distorted", thesis("four_room_distorted")),
+            ("caverns", thesis("caverns")),
+        ];
+        let (mut lazy_weights, mut eager_weights) = (0u64, 0u64);
+        for (name, cx) in &cases {
+            for h in [HeuristicKind::Aspect, HeuristicKind::Refined, HeuristicKind::Volume] {
+                for e in Estimator::ALL {
+                    for stop in [h.default_stop(), StopRule::None] {
+                        let settings = Settings {
+                            heuristic: h,
+                            estimator: e,
+                            stop,
+                            ..Settings::default()
+                        };
+                        let run = |lazy, grown| Decimation::run_with_mode(cx, &settings, Mode { lazy, grown });
+                        let what = format!("{name}/{h}/{e}/{stop}");
+                        // (1) Identical when both compute stale sides from scratch.
+                        let (lazy, eager) = (run(true, false), run(false, false));
+                        assert!(lazy.steps.len() > 20, "{what}: {} steps", lazy.steps.len());
+                        assert_eq!(lazy.steps.len(), eager.steps.len(), "{what}");
+                        for (k, (a, b)) in lazy.steps.iter().zip(&eager.steps).enumerate() {
+                            // Areas: the maximum of evaluations at different times, which
+                            // may differ in the last bit (see the module docs).
+                            let close =
+                                (0..2).all(|i| (a.projected[i] - b.projected[i]).abs() <= 1e-12 * b.projected[i]);
+                            assert!(
+                                (a.a, a.b, a.weight, a.cells_remaining, a.portal_area)
+                                    == (b.a, b.b, b.weight, b.cells_remaining, b.portal_area)
+                                    && close,
+                                "{what} step {k}: {a:?} vs {b:?}"
+                            );
+                        }
+                        assert_eq!(lazy.stop, eager.stop, "{what}");
+                        assert_eq!(lazy.partition, eager.partition, "{what}");
+                        // (2) The default against eager with increments.
+                        let (lazy, eager) = (Decimation::run(cx, &settings), run(false, true));
+                        assert_eq!(lazy.steps.len(), eager.steps.len(), "{what}");
+                        for (k, (a, b)) in lazy.steps.iter().zip(&eager.steps).enumerate() {
+                            assert!(
+                                (a.weight - b.weight).abs() <= 1e-9 * b.weight,
+                                "{what} step {k}: weight {} vs {}",
+                                a.weight,
+                                b.weight
+                            );
+                        }
+                        assert_eq!(lazy.partition, eager.partition, "{what}");
+                        lazy_weights += lazy.stats.weights_computed;
+                        eager_weights += eager.stats.weights_computed;
+                    }
+                }
+            }
+        }
+        eprintln!("weights computed: lazy {lazy_weights}, eager {eager_weights}");
+        assert!(lazy_weights < eager_weights);
+    }
+
+    /// A lazy run records exact weights, not bounds: at every 37th collapse of caverns to
+    /// the end (`union`; `aspect`, and `volume`, whose volume factor changes at every
+    /// merge), the step's weight equals the pair's weight computed from scratch on the
+    /// replayed partition (its areas by the union of the pieces' projections), to 1e-6.
+    #[test]
+    fn lazy_steps_record_exact_weights() {
+        let cx = thesis("caverns");
+        for h in [HeuristicKind::Aspect, HeuristicKind::Volume] {
+            let settings = Settings {
+                heuristic: h,
+                estimator: Estimator::Union,
+                stop: StopRule::None,
+                ..Settings::default()
+            };
+            let d = Decimation::run(&cx, &settings);
+            assert!(d.steps.len() > 1000);
+            for (k, st) in d.steps.iter().enumerate() {
+                if k % 37 == 0 {
+                    let part = Decimation::replay(&cx, &d.steps[..k]).unwrap();
+                    let portal = part
+                        .portals(&cx)
+                        .into_iter()
+                        .find(|p| p.cells == [st.a, st.b])
+                        .expect("portal pair");
+                    let (_, largest) = portal_vectors(&portal.pieces);
+                    let frame = Frame::new(portal.mean_normal, largest.2).unwrap();
+                    let mut projected = [0.0; 2];
+                    let mut volumes = [0.0; 2];
+                    for (i, id) in [st.a, st.b].into_iter().enumerate() {
+                        let cell = &part.cells[part.cell_of(id).unwrap()];
+                        let polys: Vec<_> = cell.pieces.iter().map(|p| &cx.cells[p.idx()].poly).collect();
+                        projected[i] = estimator::projected_area_direct(Estimator::Union, &polys, &frame);
+                        volumes[i] = cell.volume.max(min_volume(&cx.tol));
+                    }
+                    let ctx = PairContext {
+                        portal_area: portal.area.max(cx.tol.area_abs()),
+                        projected,
+                        volumes,
+                        pieces: [1, 1],
+                        peaks: [0.0; 2],
+                        saddle: 0.0,
+                    };
+                    let w = heuristic::sanitize(h.heuristic().weight(&ctx));
+                    assert!((w - st.weight).abs() <= 1e-6 * w, "{h} step {k}: {} vs {w}", st.weight);
+                }
+            }
+        }
     }
 }

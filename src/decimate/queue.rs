@@ -130,9 +130,12 @@ impl Queue {
         self.heap.pop().map(|(p, Reverse(k))| (p, k))
     }
 
-    /// The lowest parked key (linear scan; used once, when the heap runs dry).
-    pub fn parked_min(&self) -> Option<Key> {
-        self.parked.values().min().copied()
+    /// The parked pairs in key order (used when the heap runs dry; the engine refreshes
+    /// stale keys from the front).
+    pub fn parked_sorted(&self) -> Vec<(u32, Key)> {
+        let mut v: Vec<(u32, Key)> = self.parked.iter().map(|(&p, &k)| (p, k)).collect();
+        v.sort_unstable_by_key(|a| a.1);
+        v
     }
 }
 
@@ -190,7 +193,7 @@ mod tests {
         while let Some((p, k)) = exact.pop() {
             if k.w >= 4.0 {
                 assert_eq!(parked.peek(), None);
-                assert_eq!(parked.parked_min(), Some(k));
+                assert_eq!(parked.parked_sorted().first().map(|e| e.1), Some(k));
                 break;
             }
             assert_eq!(parked.pop(), Some((p, k)));

@@ -23,10 +23,12 @@
 //! boundary faces keyed by patch; a merge is a symmetric difference (cost: the absorbed
 //! cell's boundary). A merge that brings no face (the absorbed cell was enclosed) changes
 //! no projection, and `absorb` says so. On an unchanged plane the survivor's area grows
-//! incrementally: the stored area plus what the absorbed cell's *fresh* front faces add
-//! to the survivor's front faces they overlap
-//! ([`union_area_delta_slices`](super::project::union_area_delta_slices); its shared
-//! front faces project inside the survivor). On a new plane (a pair whose portal set
+//! incrementally from the version its stored area was computed at (one merge back, or
+//! several when the engine re-weighs lazily): the stored area plus what the front faces
+//! added since then add to the front faces of the boundary as it was then, which they
+//! overlap ([`union_area_delta_slices`](super::project::union_area_delta_slices); faces
+//! record the merge that added them, and faces that became interior are logged with the
+//! merge that removed them). On a new plane (a pair whose portal set
 //! changed) the whole front is unioned
 //! ([`union_area_paired`](super::project::union_area_paired)): neighbouring front faces
 //! share edges exactly, and only the unshared edges (the silhouette, and the edges of
@@ -72,10 +74,12 @@ pub trait AreaEstimator: 'static {
     /// Projected area on the plane of `frame` (the engine maps non-finite values to 0 and
     /// negative ones to 0).
     fn projected_area(state: &Self::State, frame: &Frame) -> f64;
-    /// The projected area after the last [`AreaEstimator::absorb`], given the area
-    /// `before` it on the same plane. The default recomputes it in full.
-    fn projected_area_grown(state: &Self::State, frame: &Frame, before: f64) -> f64 {
-        let _ = before;
+    /// The projected area now, given the area `before` on the same plane when the state's
+    /// version was `since` (the version counts the merges whose `absorb` returned `true`,
+    /// from 0 for a piece; the engine keeps the same count). The default recomputes it in
+    /// full.
+    fn projected_area_grown(state: &Self::State, frame: &Frame, before: f64, since: u32) -> f64 {
+        let _ = (before, since);
         Self::projected_area(state, frame)
     }
     /// The projected area of a cell given by its convex pieces, computed from scratch (no

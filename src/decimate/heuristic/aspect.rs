@@ -12,4 +12,8 @@ impl Heuristic for Aspect {
     fn weight(&self, ctx: &PairContext) -> f64 {
         ctx.max_projected() / ctx.portal_area
     }
+    /// `A_max` grows with either projected area; the portal area is fixed.
+    fn monotone_in_projected_areas(&self) -> bool {
+        true
+    }
 }

@@ -89,6 +89,16 @@ pub trait Heuristic: Send + Sync {
     fn uses_volume(&self) -> bool {
         false
     }
+    /// Whether the weight never decreases when a projected area grows, all other inputs
+    /// of the [`PairContext`] fixed. Then the engine may re-weigh lazily: a cell that
+    /// absorbs another only grows its projections on an unchanged plane, so a pair's stored
+    /// weight (from its older, smaller areas) is a lower bound of its current weight, and
+    /// the pair is re-weighed only when it reaches the front of the queue (see the
+    /// [decimation docs](super#lazy-re-weighing)). `false` (the safe default) re-weighs
+    /// every such pair at every merge.
+    fn monotone_in_projected_areas(&self) -> bool {
+        false
+    }
     /// The engine that maintains this heuristic's inputs.
     fn engine(&self) -> Engine {
         Engine::Projected

@@ -13,4 +13,8 @@ impl Heuristic for Refined {
     fn weight(&self, ctx: &PairContext) -> f64 {
         ctx.max_projected().sqrt() / ctx.portal_area
     }
+    /// `A_max` grows with either projected area; the portal area is fixed.
+    fn monotone_in_projected_areas(&self) -> bool {
+        true
+    }
 }

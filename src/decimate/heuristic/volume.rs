@@ -18,4 +18,9 @@ impl Heuristic for VolumeRatio {
     fn uses_volume(&self) -> bool {
         true
     }
+    /// The refined weight's `√A_max` grows with either projected area; the volume factor
+    /// does not depend on them.
+    fn monotone_in_projected_areas(&self) -> bool {
+        true
+    }
 }
