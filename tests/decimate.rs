@@ -450,17 +450,28 @@ fn e1m1_decimates_end_to_end() {
 #[test]
 fn threshold_runs_are_prefixes_of_the_run_to_the_end() {
     // The weight curve `run` draws past the stop is the no-stop run; it shows the stopped
-    // run only if that run is its prefix (for aperture: with the gate on in both).
+    // run only if that run is its prefix (for aperture: with the gate on in both), followed
+    // only by aperture's clean-up pass, whose steps weigh a peak ratio below 1 (every
+    // merge step of the clearance engine weighs at least 1).
+    let mut cleanups = 0;
     for soup in [four_rooms(), four_rooms().map(rotate)] {
         let cx = build(&soup);
         for (h, e) in all_combinations() {
             let full = Decimation::run(&cx, &settings(h, e, StopRule::None));
             for t in [1.2, 1.8, 3.0] {
                 let part = Decimation::run(&cx, &settings(h, e, StopRule::Threshold(t)));
-                assert_eq!(part.steps[..], full.steps[..part.steps.len()], "{h}/{e} threshold {t}");
+                let k = part.steps.iter().zip(&full.steps).take_while(|(a, b)| a == b).count();
+                let tail = &part.steps[k..];
+                assert!(
+                    tail.is_empty() || (h == HeuristicKind::Aperture && tail.iter().all(|s| s.weight < 1.0)),
+                    "{h}/{e} threshold {t}: steps {k}.. are not the run to the end's: {tail:?}"
+                );
+                cleanups += tail.len();
             }
         }
     }
+    // The clean-up acts on these models (four_rooms at threshold 1.2), so the tail is tested.
+    assert!(cleanups > 0);
 }
 
 /// A run's record without its timings.

@@ -1161,8 +1161,8 @@ mod tests {
                 soup("four_rooms", crate::generate::four_rooms::four_rooms()),
             ),
             ("room_grid 2x2 (generated)", soup("grid", grid)),
-            ("four_room_tessellated", thesis("four_room_tessellated")),
-            ("four_room_distorted", thesis("four_room_distorted")),
+            // The larger thesis models (tessellated, distorted) cost minutes here in the
+            // eager union order; caverns keeps curved, non-convex unions in the test.
             ("caverns", thesis("caverns")),
         ];
         let (mut lazy_weights, mut eager_weights) = (0u64, 0u64);
