@@ -58,8 +58,42 @@ fn main() {
         if case.half != half || (!fams.is_empty() && !fams.iter().any(|f| *f == case.family.to_string())) {
             continue;
         }
+        if let Ok(dir) = std::env::var("WRITE") {
+            // Write the case as OBJ (for `portalfind complex --pointfile`) and skip it.
+            let mut text = String::new();
+            for v in &case.model.vertices {
+                text += &format!("v {:?} {:?} {:?}\n", v[0], v[1], v[2]);
+            }
+            for f in &case.model.polygons {
+                text += "f";
+                for i in f {
+                    text += &format!(" {}", i + 1);
+                }
+                text += "\n";
+            }
+            std::fs::write(format!("{dir}/{}.obj", case.name), text).unwrap();
+            continue;
+        }
         let model = case.load().unwrap();
-        let cx = portalfind::pipeline::complex_of_unchecked(&model).unwrap();
+        let mut cx = portalfind::pipeline::complex_of_unchecked(&model).unwrap();
+        if std::env::var("SEAL").is_ok() {
+            let leaks = cx.leaks.len();
+            let sealed = cx.seal_cracks_auto(&model);
+            println!(
+                "   {}: seal_cracks_auto: leaks {} -> {}, {} openings sealed (widest {:.2e}), active {}",
+                case.name,
+                leaks,
+                cx.leaks.len(),
+                sealed.len(),
+                sealed.iter().map(|o| o.width).fold(0.0, f64::max),
+                cx.active_cells().count(),
+            );
+        }
+        if std::env::var("LEAK").is_ok() {
+            println!("== {} leaks {}", case.name, cx.leaks.len());
+            leak_diag(&model, &cx);
+            continue;
+        }
         let settings = Settings {
             heuristic: HeuristicKind::Clearance,
             stop: StopRule::Threshold(if score_only { ratio } else { 4.0 }),
@@ -317,5 +351,124 @@ fn final_cells(
             peak[i] / op,
             m.volume / ov
         );
+    }
+}
+
+fn seg_tri(p: [f64; 3], q: [f64; 3], a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> Option<f64> {
+    let sub = |x: [f64; 3], y: [f64; 3]| [x[0] - y[0], x[1] - y[1], x[2] - y[2]];
+    let cr = |x: [f64; 3], y: [f64; 3]| {
+        [
+            x[1] * y[2] - x[2] * y[1],
+            x[2] * y[0] - x[0] * y[2],
+            x[0] * y[1] - x[1] * y[0],
+        ]
+    };
+    let dt = |x: [f64; 3], y: [f64; 3]| x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
+    let d = sub(q, p);
+    let (e1, e2) = (sub(b, a), sub(c, a));
+    let h = cr(d, e2);
+    let det = dt(e1, h);
+    if det.abs() < 1e-30 {
+        return None;
+    }
+    let s = sub(p, a);
+    let u = dt(s, h) / det;
+    let qq = cr(s, e1);
+    let v = dt(d, qq) / det;
+    let t = dt(e2, qq) / det;
+    (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && (0.0..=1.0).contains(&t)).then_some(t)
+}
+
+/// `LEAK=1`: for each leak of the case's complex, the steps of the leak path whose segments
+/// (cell centroid → portal centroid → next cell centroid) cross a model polygon, with the
+/// cells, the patches between them and their occluders.
+pub fn leak_diag(model: &portalfind::model::Model, cx: &portalfind::complex::CellComplex) {
+    use portalfind::ids::CellId;
+    let tris: Vec<(usize, [[f64; 3]; 3])> = model
+        .polygons
+        .iter()
+        .enumerate()
+        .flat_map(|(i, p)| {
+            let v: Vec<[f64; 3]> = p.verts.iter().map(|v| model.vertices[v.idx()]).collect();
+            (1..v.len() - 1)
+                .map(move |k| (i, [v[0], v[k], v[k + 1]]))
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    let tol = &model.tolerances;
+    let describe = |c: CellId| {
+        let cell = &cx.cells[c.idx()];
+        format!(
+            "cell {} tet {:?} flat {} membrane {} thin {} faces_occ {} vol {:.3e} nfaces {}",
+            c.0,
+            cell.tet,
+            cell.flat,
+            cx.is_membrane(c),
+            cx.is_thin(c),
+            cx.faces_occluder(c),
+            cell.poly.volume(),
+            cell.poly.faces.len()
+        )
+    };
+    for leak in &cx.leaks {
+        let pts = cx.leak_pointfile(leak);
+        println!("  leak: path {} cells", leak.path.len());
+        for i in 0..pts.len() - 1 {
+            for (pi, t) in &tris {
+                if let Some(s) = seg_tri(pts[i], pts[i + 1], t[0], t[1], t[2]) {
+                    let step = i / 2;
+                    let (c, d) = (leak.path[step], leak.path.get(step + 1).copied());
+                    println!(
+                        "  segment {i} (step {step}) crosses polygon {pi} at t {s:.4}: {:?} -> {:?}",
+                        pts[i],
+                        pts[i + 1]
+                    );
+                    println!("    {}", describe(c));
+                    if let Some(d) = d {
+                        println!("    {}", describe(d));
+                        let k = cx.portals.iter().position(|p| p.cells == [c.min(d), c.max(d)]).unwrap();
+                        let pl = portalfind::geom::ConvexPolygon::new(t.to_vec()).plane().normalized();
+                        for q in &cx.portals[k].pieces {
+                            println!(
+                                "    portal piece area {:.3e} verts {} dist to polygon plane {:?}",
+                                q.area(),
+                                q.verts.len(),
+                                q.verts.iter().map(|v| pl.eval(v)).collect::<Vec<_>>()
+                            );
+                        }
+                        let direct: Vec<u32> = cx.cells[c.idx()]
+                            .poly
+                            .tags
+                            .iter()
+                            .copied()
+                            .filter(|&tg| cx.patches[tg as usize].cells.contains(&d))
+                            .collect();
+                        println!("    direct patches {:?} (none: a join across membranes)", direct);
+                        for tg in direct {
+                            let p = &cx.patches[tg as usize];
+                            println!(
+                                "     patch {tg} area {:.3e} occluders {:?}",
+                                p.polygon.area(),
+                                p.occluders
+                                    .iter()
+                                    .map(|o| (o.source.0, o.faces, o.polygon.area()))
+                                    .collect::<Vec<_>>()
+                            );
+                        }
+                        // Distances of both cells' vertices to the crossed polygon's plane.
+                        for e in [c, d] {
+                            let ds: Vec<f64> = cx.cells[e.idx()].poly.vertices().iter().map(|v| pl.eval(v)).collect();
+                            println!(
+                                "    cell {} vertex distances to plane: min {:.3e} max {:.3e}",
+                                e.0,
+                                ds.iter().cloned().fold(f64::MAX, f64::min),
+                                ds.iter().cloned().fold(f64::MIN, f64::max)
+                            );
+                        }
+                    }
+                    let _ = tol;
+                }
+            }
+        }
     }
 }

@@ -62,11 +62,13 @@ enum Cmd {
         bsp_candidates: usize,
         /// Seal openings narrower than SIZE where the model leaks (Umbra's "smallest
         /// hole"): in model units (0.25) or as a percentage of the bounding-box diagonal
-        /// (1%). The exterior flood fill treats them as closed; each sealed hole is
-        /// printed (where, how wide) and, for run, listed in result.json. Leaks through
-        /// wider openings are still reported. See the README's "Sealing leaky levels".
-        #[arg(long, value_name = "SIZE")]
-        seal_holes: Option<pipeline::SealSize>,
+        /// (1%); `auto` (the default) seals only cracks (openings narrower than the
+        /// sliver width, lying on a wall); `off` seals nothing. The exterior flood fill
+        /// treats them as closed; each sealed hole is printed (where, how wide) and, for
+        /// run, listed in result.json. Leaks through wider openings are still reported.
+        /// See the README's "Sealing leaky levels".
+        #[arg(long, value_name = "SIZE", default_value = "auto")]
+        seal_holes: SealArg,
     },
     /// Generate test models (OBJ or .mesh by the output's extension).
     Gen {
@@ -121,11 +123,13 @@ enum Cmd {
         bsp_candidates: usize,
         /// Seal openings narrower than SIZE where the model leaks (Umbra's "smallest
         /// hole"): in model units (0.25) or as a percentage of the bounding-box diagonal
-        /// (1%). The exterior flood fill treats them as closed; each sealed hole is
-        /// printed (where, how wide) and, for run, listed in result.json. Leaks through
-        /// wider openings are still reported. See the README's "Sealing leaky levels".
-        #[arg(long, value_name = "SIZE")]
-        seal_holes: Option<pipeline::SealSize>,
+        /// (1%); `auto` (the default) seals only cracks (openings narrower than the
+        /// sliver width, lying on a wall); `off` seals nothing. The exterior flood fill
+        /// treats them as closed; each sealed hole is printed (where, how wide) and, for
+        /// run, listed in result.json. Leaks through wider openings are still reported.
+        /// See the README's "Sealing leaky levels".
+        #[arg(long, value_name = "SIZE", default_value = "auto")]
+        seal_holes: SealArg,
         /// Also draw intermediate states: for each count N (comma-separated, e.g.
         /// 2000,500,200), the cells when N were left, rebuilt by replaying the recorded
         /// collapses, as OUT/cells_N.svg. Each N must lie between the active cell count
@@ -662,7 +666,7 @@ fn run(cli: Cli) -> Result<()> {
             &model,
             !no_validate,
             pointfile.as_deref(),
-            cell_settings(subdivision, bsp_candidates, seal_holes),
+            cell_settings(subdivision, bsp_candidates, seal_holes.0),
         ),
         Cmd::Gen {
             what: GenCmd::Rooms { nx, ny, tess, out },
@@ -763,7 +767,7 @@ fn run(cli: Cli) -> Result<()> {
                 estimator,
                 stop.unwrap_or_else(|| heuristic.default_stop()),
                 &out,
-                cell_settings(subdivision, bsp_candidates, seal_holes),
+                cell_settings(subdivision, bsp_candidates, seal_holes.0),
                 &snapshots,
                 &export,
                 (evaluate || eval.walkthrough).then(|| eval.settings()),
@@ -853,6 +857,20 @@ impl LazyBar {
 impl Drop for LazyBar {
     fn drop(&mut self) {
         self.bar.finish_and_clear();
+    }
+}
+
+/// `--seal-holes`: a [`pipeline::SealSize`] (`auto` included), or `off`.
+#[derive(Clone, Copy, Debug)]
+struct SealArg(Option<pipeline::SealSize>);
+
+impl std::str::FromStr for SealArg {
+    type Err = pipeline::BadSealSize;
+    fn from_str(s: &str) -> std::result::Result<Self, Self::Err> {
+        if s.trim() == "off" {
+            return Ok(SealArg(None));
+        }
+        s.parse().map(|x| SealArg(Some(x)))
     }
 }
 

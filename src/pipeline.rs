@@ -109,8 +109,8 @@ pub struct CellSettings {
     pub seed: u64,
     /// BSP plane choice.
     pub bsp: BspSettings,
-    /// Seal openings of leaking regions narrower than this ([`CellComplex::seal_holes`]);
-    /// `None`: no sealing (the default).
+    /// Seal openings of leaking regions: cracks ([`SealSize::Auto`], the default) or
+    /// openings narrower than a size ([`CellComplex::seal_holes`]); `None`: no sealing.
     pub seal_holes: Option<SealSize>,
 }
 
@@ -120,15 +120,18 @@ impl Default for CellSettings {
             subdivision: Subdivision::Delaunay,
             seed: DEFAULT_SEED,
             bsp: BspSettings::default(),
-            seal_holes: None,
+            seal_holes: Some(SealSize::Auto),
         }
     }
 }
 
 /// The smallest opening that is not sealed: in model units (`0.25`), or as a percentage
-/// of the model's bounding-box diagonal (`1%`).
+/// of the model's bounding-box diagonal (`1%`); or `auto`, cracks only
+/// ([`CellComplex::seal_cracks_auto`]: openings narrower than the sliver width).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum SealSize {
+    /// Cracks only, no size given ([`CellComplex::seal_cracks_auto`]).
+    Auto,
     /// Model units.
     Units(f64),
     /// Percent of the bounding-box diagonal.
@@ -136,11 +139,12 @@ pub enum SealSize {
 }
 
 impl SealSize {
-    /// In model units, for `model`.
-    pub fn resolve(self, model: &Model) -> f64 {
+    /// In model units, for `model` (`None` for [`SealSize::Auto`]).
+    pub fn resolve(self, model: &Model) -> Option<f64> {
         match self {
-            SealSize::Units(u) => u,
-            SealSize::PercentOfDiagonal(p) => p / 100.0 * model.tolerances.scale,
+            SealSize::Auto => None,
+            SealSize::Units(u) => Some(u),
+            SealSize::PercentOfDiagonal(p) => Some(p / 100.0 * model.tolerances.scale),
         }
     }
 }
@@ -148,6 +152,7 @@ impl SealSize {
 impl fmt::Display for SealSize {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
+            SealSize::Auto => f.write_str("auto"),
             SealSize::Units(u) => write!(f, "{u}"),
             SealSize::PercentOfDiagonal(p) => write!(f, "{p}%"),
         }
@@ -157,7 +162,7 @@ impl fmt::Display for SealSize {
 /// A sealing size that is not a positive finite number (optionally followed by `%`).
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 #[error(
-    "bad hole size {text:?}: use a positive size in model units (0.25) or a percentage of the bounding-box diagonal (1%)"
+    "bad hole size {text:?}: use a positive size in model units (0.25), a percentage of the bounding-box diagonal (1%) or auto"
 )]
 pub struct BadSealSize {
     /// The text given.
@@ -169,6 +174,9 @@ impl FromStr for SealSize {
     fn from_str(s: &str) -> Result<Self, BadSealSize> {
         let bad = || BadSealSize { text: s.to_string() };
         let t = s.trim();
+        if t == "auto" {
+            return Ok(SealSize::Auto);
+        }
         let (num, pct) = match t.strip_suffix('%') {
             Some(n) => (n.trim(), true),
             None => (t, false),
@@ -410,7 +418,10 @@ pub fn build_cells_unchecked(
 ) -> Result<Cells, PipelineError> {
     let mut cells = build_cells_unsealed(model, label, settings, progress)?;
     if let Some(size) = settings.seal_holes {
-        cells.sealed = cells.cx.seal_holes(model, size.resolve(model));
+        cells.sealed = match size.resolve(model) {
+            None => cells.cx.seal_cracks_auto(model),
+            Some(s) => cells.cx.seal_holes(model, s),
+        };
     }
     Ok(cells)
 }

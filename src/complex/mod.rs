@@ -59,7 +59,7 @@ mod validate;
 
 pub(crate) use build::{polygon_supports, project};
 
-pub use seal::SealedOpening;
+pub use seal::{FRONT_SHARE, SealedOpening};
 pub use validate::{ComplexError, ComplexValidation};
 
 use crate::geom::{ConvexPolygon, ConvexPolyhedron, Plane};

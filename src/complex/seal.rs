@@ -21,6 +21,20 @@
 //!   the size joins the inside to the outside: the region stays whole and its leak is
 //!   reported as without sealing (qbsp's path and pointfile).
 //!
+//! **Cracks, with no size given** ([`CellComplex::seal_cracks_auto`], `run`'s default):
+//! the leaks of closed models (noisy walls, marching-tetrahedra caverns; issue 15) run
+//! through portals lying on a wall, within rounding of its plane, that the wall's
+//! occluders leave uncovered (nearly coplanar neighbours share one support plane, and a
+//! neighbour's occluder is not attached there). Their width is below the sliver width
+//! ([`crate::Tolerances::sliver_width`], the portal graph's own crack threshold; 2–4e-5
+//! on the suite's leaks, at diagonals of about 25). With those closed, the region falls
+//! into components; the outside part is not defined from the hull here, because a noisy
+//! wall's other side can touch small fragments of its front (a cell behind one triangle
+//! and in front of its neighbour): a component is kept when most of the occluder area
+//! its cells touch faces it ([`FRONT_SHARE`]), so the outside and the inside of walls go
+//! and rooms stay. A kept component reaching the hull through a wider opening is a real
+//! leak, reported as without sealing.
+//!
 //! Sealing removes cells and portals but never splits or changes a cell, so the
 //! complex's invariants ([`CellComplex::validate`]) hold as before.
 
@@ -68,15 +82,20 @@ pub(super) struct RegionSplit {
     pub(super) sealed: Vec<SealedOpening>,
 }
 
-/// The sealing size, the clearance field of the model, and memoised portal widths.
+/// The sealing size, how a leaking region is split, the clearance field of the model, and
+/// memoised portal widths.
 pub(super) struct Sealer {
     size: f64,
+    /// [`CellComplex::seal_cracks_auto`]'s split (components over wide portals, kept by
+    /// the occluder side they mostly see) instead of [`CellComplex::seal_holes`]'s (the
+    /// outside part reached from wide hull openings).
+    components: bool,
     field: ClearanceField,
     widths: HashMap<usize, (f64, [f64; 3])>,
 }
 
 impl Sealer {
-    pub(super) fn new(model: &Model, size: f64) -> Sealer {
+    fn with_split(model: &Model, size: f64, components: bool) -> Sealer {
         let polys: Vec<Vec<[f64; 3]>> = model
             .polygons
             .iter()
@@ -84,9 +103,14 @@ impl Sealer {
             .collect();
         Sealer {
             size,
+            components,
             field: ClearanceField::from_polygons(polys.iter().map(|v| v.as_slice())),
             widths: HashMap::new(),
         }
+    }
+
+    pub(super) fn new(model: &Model, size: f64) -> Sealer {
+        Sealer::with_split(model, size, false)
     }
 
     /// Twice the largest sampled clearance over `pieces`, and where; stops early once the
@@ -135,6 +159,11 @@ impl Sealer {
         w
     }
 
+    /// Whether portal `k` is narrower than the sealing size.
+    fn narrow(&mut self, cx: &CellComplex, k: usize) -> bool {
+        self.portal_width(cx, k).0 < self.size
+    }
+
     /// Splits a leaking region (see the module docs); `None` when sealing does not stop
     /// the leak (the outside part faces an occluder).
     pub(super) fn split_region(
@@ -144,6 +173,9 @@ impl Sealer {
         adj: &[Vec<(CellId, usize)>],
         hull_open: &HashMap<CellId, (Vec<ConvexPolygon>, [f64; 3])>,
     ) -> Option<RegionSplit> {
+        if self.components {
+            return self.split_components(cx, members, adj, hull_open);
+        }
         // Hull openings: wide ones seed the outside part, narrow ones are sealed.
         let mut narrow_hull: HashMap<CellId, Raw> = HashMap::new();
         let mut outside: HashSet<CellId> = HashSet::new();
@@ -241,6 +273,157 @@ impl Sealer {
     }
 }
 
+impl Sealer {
+    /// [`CellComplex::seal_cracks_auto`]'s split of a leaking region: its components with
+    /// narrow portals closed. A component is kept when it faces an occluder and more than
+    /// half of the (non-sliver) occluder area its cells touch faces it
+    /// ([`FRONT_SHARE`]); the others are exterior (the outside, the inside of walls, and
+    /// the wall's other side reached through a crack, which may touch a few fragments of
+    /// a noisy wall's front). Kept components are joined again through every portal
+    /// (narrow passages between rooms stay open). `None` when a kept component still
+    /// reaches the hull through a wide opening (a real leak, reported as without
+    /// sealing).
+    fn split_components(
+        &mut self,
+        cx: &CellComplex,
+        members: &[CellId],
+        adj: &[Vec<(CellId, usize)>],
+        hull_open: &HashMap<CellId, (Vec<ConvexPolygon>, [f64; 3])>,
+    ) -> Option<RegionSplit> {
+        // Components over wide portals, in member order (deterministic).
+        let mut comp: HashMap<CellId, usize> = HashMap::new();
+        let mut comps: Vec<Vec<CellId>> = Vec::new();
+        for &s in members {
+            if comp.contains_key(&s) {
+                continue;
+            }
+            let id = comps.len();
+            comp.insert(s, id);
+            let mut sub = vec![s];
+            let mut i = 0;
+            while i < sub.len() {
+                let c = sub[i];
+                i += 1;
+                for &(m, k) in &adj[c.idx()] {
+                    if !comp.contains_key(&m) && !self.narrow(cx, k) {
+                        comp.insert(m, id);
+                        sub.push(m);
+                    }
+                }
+            }
+            comps.push(sub);
+        }
+        let kept: Vec<bool> = comps
+            .iter()
+            .map(|cs| {
+                if !cs.iter().any(|&c| cx.faces_occluder(c)) {
+                    return false;
+                }
+                let (front, back) = cs.iter().fold((0.0, 0.0), |(f, b), &c| {
+                    let (f1, b1) = faced_areas(cx, c);
+                    (f + f1, b + b1)
+                });
+                front > FRONT_SHARE * (front + back)
+            })
+            .collect();
+        // Hull openings of kept components: a wide one is a real leak, narrow ones are
+        // sealed.
+        let mut raw = Vec::new();
+        for (id, cs) in comps.iter().enumerate() {
+            if !kept[id] {
+                continue;
+            }
+            for &c in cs {
+                let Some((pieces, q)) = hull_open.get(&c) else {
+                    continue;
+                };
+                let (w, p) = if pieces.is_empty() {
+                    (2.0 * self.field.distance(*q), *q)
+                } else {
+                    self.width(pieces)
+                };
+                if w >= self.size {
+                    return None;
+                }
+                raw.push(Raw {
+                    width: w,
+                    point: p,
+                    area: pieces.iter().map(|p| p.area()).sum(),
+                    inside: c,
+                    outside: HULL,
+                });
+            }
+        }
+        let mut split = RegionSplit {
+            exterior: Vec::new(),
+            exterior_regions: 0,
+            interior_regions: 0,
+            sealed: Vec::new(),
+        };
+        // Kept cells joined through every portal; the (narrow) portals from them to
+        // exterior cells are the sealed openings.
+        let mut seen: HashSet<CellId> = HashSet::new();
+        for (id, cs) in comps.iter().enumerate() {
+            if !kept[id] {
+                split.exterior_regions += 1;
+                split.exterior.extend(cs.iter().copied());
+                continue;
+            }
+            if !seen.insert(cs[0]) {
+                continue;
+            }
+            split.interior_regions += 1;
+            let mut sub = vec![cs[0]];
+            let mut i = 0;
+            while i < sub.len() {
+                let c = sub[i];
+                i += 1;
+                for &(m, k) in &adj[c.idx()] {
+                    if kept[comp[&m]] {
+                        if seen.insert(m) {
+                            sub.push(m);
+                        }
+                    } else {
+                        let (width, point) = self.portal_width(cx, k);
+                        raw.push(Raw {
+                            width,
+                            point,
+                            area: cx.portals[k].area,
+                            inside: c,
+                            outside: m,
+                        });
+                    }
+                }
+            }
+        }
+        split.exterior.sort_unstable();
+        // Openings within a hundred sealing sizes of each other are one hole.
+        split.sealed = group(raw, 100.0 * self.size);
+        Some(split)
+    }
+}
+
+/// The occluder area cell `c` sees from the front and from the back (slivers skipped).
+fn faced_areas(cx: &CellComplex, c: CellId) -> (f64, f64) {
+    let cell = &cx.cells[c.idx()];
+    let (mut front, mut back) = (0.0, 0.0);
+    for &t in &cell.poly.tags {
+        let p = &cx.patches[t as usize];
+        let side = if p.cells[0] == c { 0 } else { 1 };
+        for o in &p.occluders {
+            if super::graph::is_sliver(&o.polygon, &cx.tol) {
+                continue;
+            }
+            if o.faces == side {
+                front += o.polygon.area();
+            } else {
+                back += o.polygon.area();
+            }
+        }
+    }
+    (front, back)
+}
+
 /// Groups raw openings into holes: two are in one hole when their points are closer than
 /// `size` (single linkage). Sorted by position.
 fn group(raw: Vec<Raw>, size: f64) -> Vec<SealedOpening> {
@@ -288,7 +471,43 @@ fn group(raw: Vec<Raw>, size: f64) -> Vec<SealedOpening> {
     out
 }
 
+/// [`CellComplex::seal_cracks_auto`]: a component of a leaking region is kept when more
+/// than this share of the occluder area its cells touch faces it (a room sees the walls'
+/// fronts, the other side of a wall their backs; a crack does not change that).
+pub const FRONT_SHARE: f64 = 0.5;
+
 impl CellComplex {
+    /// Seals the **cracks** of leaking regions, with no size given (`run`'s default,
+    /// `--seal-holes auto`): stage 6 again with every opening narrower than the sliver
+    /// width ([`crate::Tolerances::sliver_width`], the width below which the portal graph
+    /// already drops a portal piece as a crack) closed. Such an opening is a portal lying
+    /// on a wall, within rounding of it, that the wall's occluders do not cover. The
+    /// leaking region's components over the other portals are kept when they face
+    /// occluders and mostly their fronts ([`FRONT_SHARE`]), else removed as exterior; kept
+    /// components are joined again through every portal. The openings sealed between kept
+    /// and removed cells are returned (one per hole) and counted in
+    /// `stats.openings_sealed`. A region whose kept part still reaches the hull through a
+    /// wider opening stays a leak, reported as before. Does nothing without a leak.
+    pub fn seal_cracks_auto(&mut self, model: &Model) -> Vec<SealedOpening> {
+        if self.leaks.is_empty() {
+            return Vec::new();
+        }
+        let t0 = Instant::now();
+        for c in &mut self.cells {
+            c.exterior = false;
+        }
+        self.build_graph();
+        self.stats.exterior_regions = 0;
+        self.stats.interior_regions = 0;
+        let mut sealer = Sealer::with_split(model, self.tol.sliver_width(), true);
+        let sealed = self.remove_exterior_with(Some(&mut sealer));
+        self.stats.openings_sealed = sealed.len();
+        self.stats
+            .timings
+            .push(("sealing cracks (auto)".into(), t0.elapsed().as_secs_f64()));
+        sealed
+    }
+
     /// Seals openings narrower than `size` (model units) in leaking regions: redoes the
     /// exterior removal (stage 6) with such openings closed, as described in the module
     /// docs of `complex::seal`, and returns the sealed openings (one per hole). Leaks that
