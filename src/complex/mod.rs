@@ -30,7 +30,9 @@
 //! 5. **Portal graph.** Each patch between two cells, minus all its occluders (either
 //!    side), gives convex portal pieces; pieces below the area tolerance or narrower than
 //!    [`Tolerances::sliver_width`] are slivers (cracks), counted and dropped. Pieces are
-//!    grouped per cell pair into [`Portal`]s. Flat cells (four nearly coplanar input
+//!    grouped per cell pair into [`Portal`]s. A sliver opening that is the only one between
+//!    two cells is kept apart as a crack link ([`CellComplex::cracks`]; after stage 6 only
+//!    those within one region), for visibility only. Flat cells (four nearly coplanar input
 //!    points) and cells thinner than the sliver width are membranes, not nodes
 //!    ([`CellComplex::is_membrane`]): the cells below and above one are joined over the
 //!    overlap of their open faces.
