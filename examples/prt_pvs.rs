@@ -1,8 +1,14 @@
-//! PVS of a qbsp PRT1 portal file (Quake's leaves), with the flow's source clipping off and
-//! on, interleaved so the two timings share the machine's load:
-//! `cargo run --release --example prt_pvs -- models/quake/e1m1.prt [ROUNDS] [both|old|new] [BUDGET]`
-//! (`old`/`new`: one rule only, so `/usr/bin/time` gives its CPU time; BUDGET: flow steps per
-//! source, default [`PvsSettings::max_steps_per_source`]).
+//! PVS of a qbsp PRT1 portal file (Quake's leaves) under several flow rules, interleaved
+//! so their timings share the machine's load:
+//! `cargo run --release --example prt_pvs -- models/quake/e1m1.prt [ROUNDS] [RULES] [BUDGET]`
+//!
+//! RULES is a comma-separated list of `old` (target clipped only, one-way sets), `clip`
+//! (source clipped too, one-way sets: the default before the symmetric rule), `new` (the
+//! default: source clipped, symmetric sets), or `both` (= `old,new`, the default); a single
+//! rule per process lets `/usr/bin/time` give its CPU time. BUDGET: flow steps per source,
+//! default [`PvsSettings::max_steps_per_source`]. After each rule the leaf pairs it sees
+//! that the previous rule in the list does not are counted (must be 0 when the list goes
+//! from looser to tighter), and for `new` after `clip` the leaves whose sets shrank most.
 
 use portalfind::visibility::{PvsSettings, prt, pvs};
 use std::time::Instant;
@@ -16,19 +22,25 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let budget: u64 = std::env::args()
         .nth(4)
         .map_or(Ok(PvsSettings::default().max_steps_per_source), |s| s.parse())?;
-    let rules: Vec<bool> = match mode.as_str() {
-        "old" => vec![false],
-        "new" => vec![true],
-        _ => vec![false, true],
-    };
+    let mut rules: Vec<(&str, bool, bool)> = Vec::new();
+    for r in mode.split(',') {
+        match r {
+            "old" => rules.push(("old", false, false)),
+            "clip" => rules.push(("clip", true, false)),
+            "new" => rules.push(("new", true, true)),
+            "both" => rules.extend([("old", false, false), ("new", true, true)]),
+            _ => return Err(format!("unknown rule {r:?} (old, clip, new, both)").into()),
+        }
+    }
     let f = prt::read(std::path::Path::new(&path))?;
     let g = f.graph();
     println!("{path}: {} leaves, {} portals", g.cells, g.portals.len());
-    let mut last: Option<pvs::Pvs> = None;
     for round in 0..rounds {
-        for &clip_source in &rules {
+        let mut last: Option<(&str, pvs::Pvs)> = None;
+        for &(name, clip_source, symmetric) in &rules {
             let settings = PvsSettings {
                 clip_source,
+                symmetric,
                 max_steps_per_source: budget,
                 ..Default::default()
             };
@@ -36,27 +48,46 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let p = pvs::compute(&g, &settings);
             let t = t0.elapsed().as_secs_f64();
             println!(
-                "round {round} clip_source {clip_source}: PVS mean {:.1} max {} leaves; {t:.2} s (base {:.2} s, flow {:.2} s); \
-                 {} chains; {} sources truncated (budget {} steps)",
+                "round {round} {name} (clip_source {clip_source}, symmetric {symmetric}): PVS mean {:.1} max {} leaves; \
+                 {t:.2} s (base {:.2} s, flow {:.2} s); {} chains; {} sources truncated (budget {} steps); \
+                 {} one-way pairs dropped",
                 p.mean_size(),
                 p.max_size(),
                 p.stats.base_seconds,
                 p.stats.flow_seconds,
                 p.stats.chains,
                 p.stats.sources_truncated,
-                settings.max_steps_per_source
+                settings.max_steps_per_source,
+                p.stats.asymmetric_dropped
             );
-            if let Some(q) = &last {
-                // The tighter rule's sets lie inside the looser rule's.
-                let (a, b) = if clip_source { (&p, q) } else { (q, &p) };
+            if let Some((prev, q)) = &last {
                 let outside = (0..g.cells)
-                    .map(|c| (0..g.cells).filter(|&d| a.sees(c, d) && !b.sees(c, d)).count())
+                    .map(|c| (0..g.cells).filter(|&d| p.sees(c, d) && !q.sees(c, d)).count())
                     .sum::<usize>();
-                println!("  leaf pairs seen with source clipping but not without: {outside}");
+                println!("  leaf pairs seen by {name} but not by {prev}: {outside}");
+                let mut shrink: Vec<(usize, usize, usize)> = (0..g.cells)
+                    .map(|c| {
+                        (
+                            q.sets[c].count() - q.sets[c].count().min(p.sets[c].count()),
+                            c,
+                            q.sets[c].count(),
+                        )
+                    })
+                    .collect();
+                shrink.sort_by(|a, b| b.cmp(a));
+                let changed = shrink.iter().filter(|s| s.0 > 0).count();
+                println!(
+                    "  leaves whose set shrank: {changed}; largest drops (leaf: {prev} -> {name}): {}",
+                    shrink
+                        .iter()
+                        .take(8)
+                        .map(|&(d, c, n)| format!("{c}: {n} -> {}", n - d))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                );
             }
-            last = Some(p);
+            last = Some((name, p));
         }
-        last = None;
     }
     Ok(())
 }

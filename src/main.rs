@@ -281,6 +281,9 @@ struct EvalArgs {
     /// PVS: do not clip the source by the separating planes (the old rule; for comparison).
     #[arg(long)]
     pvs_no_clip_source: bool,
+    /// PVS: keep one-way pairs (no symmetric intersection; the old rule, for comparison).
+    #[arg(long)]
+    pvs_no_symmetric: bool,
     /// Walkthrough: horizontal field of view in degrees (the image is 4:3).
     #[arg(long, default_value_t = 90.0)]
     fov: f64,
@@ -300,6 +303,7 @@ impl EvalArgs {
                 max_steps_per_source: self.pvs_budget,
                 revisit_cells: self.pvs_revisit_cells,
                 clip_source: !self.pvs_no_clip_source,
+                symmetric: !self.pvs_no_symmetric,
                 ..Default::default()
             },
             sampling: (!self.no_sampling).then_some(SampleSettings {

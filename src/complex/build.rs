@@ -173,6 +173,7 @@ impl CellComplex {
             cells,
             patches,
             portals: Vec::new(),
+            cracks: Vec::new(),
             leaks: Vec::new(),
             stats,
             tol: model.tolerances,

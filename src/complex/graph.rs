@@ -27,6 +27,27 @@ pub(super) fn is_sliver(q: &ConvexPolygon, tol: &crate::Tolerances) -> bool {
 /// A portal piece joining two cells across flat cells, oriented from the first to the second.
 type Link = (CellId, CellId, ConvexPolygon);
 
+/// The crack links of [`CellComplex::cracks`] before the region test: the sliver openings
+/// (`dropped`) between cell pairs that no portal joins (`by_pair`), grouped per pair and
+/// oriented from the smaller cell id to the larger, in a fixed order.
+fn crack_links(by_pair: &HashMap<(CellId, CellId), usize>, dropped: Vec<Link>) -> Vec<Portal> {
+    let mut cracks: std::collections::BTreeMap<(CellId, CellId), Portal> = Default::default();
+    for (a, b, q) in dropped {
+        let (key, q) = if a < b { ((a, b), q) } else { ((b, a), q.reversed()) };
+        if by_pair.contains_key(&key) {
+            continue;
+        }
+        let p = cracks.entry(key).or_insert_with(|| Portal {
+            cells: [key.0, key.1],
+            pieces: Vec::new(),
+            area: 0.0,
+        });
+        p.area += q.area();
+        p.pieces.push(q);
+    }
+    cracks.into_values().collect()
+}
+
 /// Area-weighted centroid of convex pieces (the first piece's centroid if all are empty).
 fn area_centroid(pieces: &[ConvexPolygon]) -> [f64; 3] {
     crate::base::vec::weighted_mean(pieces.iter().map(|p| (p.area(), p.centroid())))
@@ -66,6 +87,13 @@ impl CellComplex {
     /// Pieces below the area tolerance or narrower than [`crate::Tolerances::sliver_width`]
     /// are slivers: dropped and counted.
     pub fn open_pieces(&self, p: PatchId) -> (Vec<ConvexPolygon>, usize, f64) {
+        let (keep, _, slivers, sliver_area) = self.open_and_sliver_pieces(p);
+        (keep, slivers, sliver_area)
+    }
+
+    /// [`CellComplex::open_pieces`], also returning the sliver pieces it drops (those
+    /// that the subtraction itself discards are only counted).
+    fn open_and_sliver_pieces(&self, p: PatchId) -> (Vec<ConvexPolygon>, Vec<ConvexPolygon>, usize, f64) {
         let patch = &self.patches[p.idx()];
         let (pieces, mut slivers, mut sliver_area) = if patch.occluders.is_empty() {
             (vec![patch.polygon.clone()], 0, 0.0)
@@ -75,16 +103,20 @@ impl CellComplex {
             (s.pieces, s.slivers, s.sliver_area)
         };
         let mut keep = Vec::with_capacity(pieces.len());
+        let mut dropped = Vec::new();
         for q in pieces {
             let a = q.area();
             if is_sliver(&q, &self.tol) {
                 slivers += 1;
                 sliver_area += a;
+                if a > 0.0 && a.is_finite() {
+                    dropped.push(q);
+                }
             } else {
                 keep.push(q);
             }
         }
-        (keep, slivers, sliver_area)
+        (keep, dropped, slivers, sliver_area)
     }
 
     /// Stage 5: portals between alive cells, grouped per cell pair.
@@ -115,6 +147,8 @@ impl CellComplex {
                 portals[k].pieces.push(p);
             }
         };
+        // Sliver openings between two graph nodes, oriented from the first cell to the second.
+        let mut dropped: Vec<Link> = Vec::new();
         for (pi, patch) in self.patches.iter().enumerate() {
             if !patch.alive || patch.cells[1] == HULL {
                 continue;
@@ -123,20 +157,24 @@ impl CellComplex {
             if !self.cells[a.idx()].alive || !self.cells[b.idx()].alive {
                 continue;
             }
-            let (pieces, s, sa) = self.open_pieces(PatchId(pi as u32));
+            let (pieces, sliver_pieces, s, sa) = self.open_and_sliver_pieces(PatchId(pi as u32));
             slivers += s;
             sliver_area += sa;
             // A membrane (flat or thinner than the sliver width) is not a room: see
             // `through_flat`.
-            if pieces.is_empty() || membrane[a.idx()] || membrane[b.idx()] {
+            if membrane[a.idx()] || membrane[b.idx()] {
                 continue;
             }
-            add(a, b, pieces);
+            dropped.extend(sliver_pieces.into_iter().map(|q| (a, b, q)));
+            if !pieces.is_empty() {
+                add(a, b, pieces);
+            }
         }
         let (links, hull) = self.through_flat(&membrane);
         for (a, b, p) in links {
             add(a, b, vec![p]);
         }
+        self.cracks = crack_links(&by_pair, dropped);
         self.hull_through = hull;
         self.portals = portals;
         self.stats.slivers_discarded = slivers;
@@ -342,7 +380,7 @@ impl CellComplex {
         mut sealer: Option<&mut super::seal::Sealer>,
     ) -> Vec<super::seal::SealedOpening> {
         let adj = self.adjacency();
-        let (_, regions) = self.regions(&adj);
+        let (region, regions) = self.regions(&adj);
         let hull_open_pieces = self.hull_openings();
         let hull_open: HashMap<CellId, [f64; 3]> = hull_open_pieces.iter().map(|(c, (_, q))| (*c, *q)).collect();
         let mut removed = 0;
@@ -381,6 +419,11 @@ impl CellComplex {
         self.stats.active_cells = self.cells.iter().filter(|c| c.active()).count();
         self.portals
             .retain(|p| !self.cells[p.cells[0].idx()].exterior && !self.cells[p.cells[1].idx()].exterior);
+        // A crack joins two active cells of one region only (see `CellComplex::cracks`).
+        self.cracks.retain(|p| {
+            let [a, b] = p.cells;
+            self.cells[a.idx()].active() && self.cells[b.idx()].active() && region[a.idx()] == region[b.idx()]
+        });
         self.stats.portal_pairs = self.portals.len();
         self.stats.portal_polygons = self.portals.iter().map(|p| p.pieces.len()).sum();
         self.stats.leaks = leaks.len();
@@ -440,5 +483,155 @@ impl CellComplex {
             path,
             first_portal_point,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::complex::{Cell, ComplexStats, Occluder, Patch};
+    use crate::geom::ConvexPolyhedron;
+    use crate::ids::PolygonId;
+    use crate::tolerances::Tolerances;
+
+    /// Width of the crack: below the sliver width of a model of diagonal 3 (3e-5).
+    const W: f64 = 1e-5;
+
+    fn quad(v: [[f64; 3]; 4]) -> ConvexPolygon {
+        ConvexPolygon::new(v.to_vec())
+    }
+
+    /// Cells A = [0,1]×[0,1], B = [1,2]×[0,1], C = [0,2]×[1,2] (z in [0, 1]), every outer
+    /// face a wall facing its cell. A|B (x = 1) is a wall with an uncovered strip of width
+    /// `W` along its top (its own patch, no occluder): the only opening between A and B.
+    /// A|C is open; B|C is open when `bc_open`, else a wall, so that B is a closed room
+    /// of its own that only the crack reaches.
+    fn scene(bc_open: bool) -> CellComplex {
+        let tol = Tolerances::for_scale(3.0);
+        let boxes = [
+            ([0.0, 0.0, 0.0], [1.0, 1.0, 1.0]),
+            ([1.0, 0.0, 0.0], [2.0, 1.0, 1.0]),
+            ([0.0, 1.0, 0.0], [2.0, 2.0, 1.0]),
+        ];
+        let mut patches: Vec<Patch> = Vec::new();
+        let mut faces: Vec<Vec<(ConvexPolygon, u32)>> = vec![Vec::new(); 3];
+        // A patch out of cell `i` (polygon `f`, counter-clockwise seen from outside `i`)
+        // into `j` (or the hull), with walls facing the listed sides.
+        let mut add = |i: usize, j: Option<usize>, f: ConvexPolygon, walls: &[u8]| {
+            let id = patches.len() as u32;
+            patches.push(Patch {
+                polygon: f.clone(),
+                cells: [CellId(i as u32), j.map_or(HULL, |j| CellId(j as u32))],
+                occluders: walls
+                    .iter()
+                    .map(|&s| Occluder {
+                        polygon: f.clone(),
+                        source: PolygonId(0),
+                        faces: s,
+                    })
+                    .collect(),
+                alive: true,
+            });
+            faces[i].push((f.clone(), id));
+            if let Some(j) = j {
+                faces[j].push((f.reversed(), id));
+            }
+        };
+        // A|B: the wall below z = 1 - W, the crack above it (normal +x, out of A).
+        add(
+            0,
+            Some(1),
+            quad([
+                [1.0, 0.0, 0.0],
+                [1.0, 1.0, 0.0],
+                [1.0, 1.0, 1.0 - W],
+                [1.0, 0.0, 1.0 - W],
+            ]),
+            &[0, 1],
+        );
+        add(
+            0,
+            Some(1),
+            quad([
+                [1.0, 0.0, 1.0 - W],
+                [1.0, 1.0, 1.0 - W],
+                [1.0, 1.0, 1.0],
+                [1.0, 0.0, 1.0],
+            ]),
+            &[],
+        );
+        // A|C and B|C at y = 1 (normal +y, out of A and B).
+        add(
+            0,
+            Some(2),
+            quad([[0.0, 1.0, 0.0], [0.0, 1.0, 1.0], [1.0, 1.0, 1.0], [1.0, 1.0, 0.0]]),
+            &[],
+        );
+        let bc = quad([[1.0, 1.0, 0.0], [1.0, 1.0, 1.0], [2.0, 1.0, 1.0], [2.0, 1.0, 0.0]]);
+        add(1, Some(2), bc, if bc_open { &[] } else { &[0, 1] });
+        // Outer faces: walls on the hull. Cuboid faces are −x, +x, −y, +y, −z, +z.
+        for (i, (lo, hi)) in boxes.iter().enumerate() {
+            let cube = ConvexPolyhedron::cuboid(lo, hi);
+            let inner: &[usize] = match i {
+                0 => &[1, 3],
+                1 => &[0, 3],
+                _ => &[2],
+            };
+            for (k, f) in cube.faces.into_iter().enumerate() {
+                if !inner.contains(&k) {
+                    add(i, None, f, &[0]);
+                }
+            }
+        }
+        let cells = faces
+            .into_iter()
+            .map(|fs| {
+                let (f, t): (Vec<_>, Vec<_>) = fs.into_iter().unzip();
+                Cell {
+                    poly: ConvexPolyhedron::from_faces(f, t),
+                    tet: None,
+                    alive: true,
+                    exterior: false,
+                    flat: false,
+                }
+            })
+            .collect();
+        let mut cx = CellComplex::from_parts(cells, patches, tol, 4.0, Vec::new(), ComplexStats::default());
+        cx.build_graph();
+        cx.remove_exterior();
+        cx
+    }
+
+    /// Two cells joined only through a sliver opening: no portal, but a crack link when
+    /// they lie in one region (A and B, both joined to C), which visibility follows; none
+    /// when the crack is all that joins two regions (B closed off from C).
+    #[test]
+    fn sliver_opening_is_a_crack_link_within_a_region_only() {
+        let (a, b, c) = (CellId(0), CellId(1), CellId(2));
+        let pair = |cx: &CellComplex, x: CellId, y: CellId| cx.portals.iter().any(|p| p.cells == [x, y]);
+
+        let cx = scene(true);
+        assert_eq!(cx.stats.slivers_discarded, 1);
+        assert_eq!(cx.stats.leaks, 0);
+        assert!(pair(&cx, a, c) && pair(&cx, b, c) && !pair(&cx, a, b));
+        assert_eq!(cx.cracks.len(), 1);
+        assert_eq!(cx.cracks[0].cells, [a, b]);
+        assert!((cx.cracks[0].area - W).abs() < 1e-12);
+        // Oriented from A into B (+x).
+        assert!(cx.cracks[0].pieces[0].normal()[0] > 0.99);
+        // Visibility carries it: a portal piece between A and B.
+        let (g, index) = crate::visibility::PortalGraph::from_complex(&cx);
+        let (ga, gb) = (index[0], index[1]);
+        assert!(g.portals.iter().any(|p| p.cells == [ga, gb] || p.cells == [gb, ga]));
+        assert_eq!(g.pieces(), 3);
+
+        // B walled off from C: A|C and B's room are two regions; the crack would join
+        // them, so it is dropped (the flood fill and leaks never see cracks either).
+        let cx = scene(false);
+        assert_eq!(cx.stats.interior_regions, 2);
+        assert!(pair(&cx, a, c) && !pair(&cx, b, c) && !pair(&cx, a, b));
+        assert!(cx.cracks.is_empty());
+        let (g, _) = crate::visibility::PortalGraph::from_complex(&cx);
+        assert_eq!(g.pieces(), 1);
     }
 }

@@ -30,7 +30,9 @@
 //! 5. **Portal graph.** Each patch between two cells, minus all its occluders (either
 //!    side), gives convex portal pieces; pieces below the area tolerance or narrower than
 //!    [`Tolerances::sliver_width`] are slivers (cracks), counted and dropped. Pieces are
-//!    grouped per cell pair into [`Portal`]s. Flat cells (four nearly coplanar input
+//!    grouped per cell pair into [`Portal`]s. A sliver opening that is the only one between
+//!    two cells is kept apart as a crack link ([`CellComplex::cracks`]; after stage 6 only
+//!    those within one region), for visibility only. Flat cells (four nearly coplanar input
 //!    points) and cells thinner than the sliver width are membranes, not nodes
 //!    ([`CellComplex::is_membrane`]): the cells below and above one are joined over the
 //!    overlap of their open faces.
@@ -209,6 +211,16 @@ pub struct CellComplex {
     pub patches: Vec<Patch>,
     /// Portals between active cells, after [`CellComplex::build`].
     pub portals: Vec<Portal>,
+    /// **Crack links**: openings dropped as slivers (uncovered patch pieces below the area
+    /// tolerance or narrower than [`Tolerances::sliver_width`]) that are the *only*
+    /// connection between two cells, kept as (tiny) portals that only visibility uses
+    /// ([`crate::visibility::PortalGraph`]): a sight line may pass such an opening. Not in
+    /// [`CellComplex::portals`], so the flood fill, leaks, sealing and the decimation do
+    /// not see them. Invariant: both cells are active, are not joined by a portal, and lie
+    /// in the same region of the portal graph (a crack never joins two regions, so it
+    /// cannot re-open a leak that dropping slivers closed: a noisy wall's seams between
+    /// the room and the inside of the wall or the outside are dropped as before).
+    pub cracks: Vec<Portal>,
     /// Leaks found by the flood fill.
     pub leaks: Vec<Leak>,
     /// Counts and timings.
@@ -244,6 +256,7 @@ impl CellComplex {
             cells,
             patches,
             portals: Vec::new(),
+            cracks: Vec::new(),
             leaks: Vec::new(),
             stats,
             tol,
@@ -291,6 +304,7 @@ impl CellComplex {
         self.cells.shrink_to_fit();
         self.patches.shrink_to_fit();
         self.portals.shrink_to_fit();
+        self.cracks.shrink_to_fit();
         (cells, patches)
     }
 

@@ -3,8 +3,14 @@
 //!
 //! A model polygon belongs to the cells it **faces**: those on whose boundary one of its
 //! occluders lies with the occluder's front towards the cell ([`crate::complex::Occluder`]'s
-//! `faces`). A polygon split across several cells belongs to each; a polygon that faces no
-//! active cell (outward faces of the level's shell, unplaced fragments) belongs to none, is
+//! `faces`). A polygon split across several cells belongs to each. A polygon that faces an
+//! inactive cell *openly adjacent* to an active one — a membrane
+//! ([`CellComplex::is_membrane`]: a flat or thin cell, never a node, removed by the flood
+//! fill), e.g. the wedge between the two triangles of a noisy wall quad — is seen through
+//! that membrane from the active cell, so it also belongs to the active cells on the
+//! membrane's open faces (an exterior cell is never openly adjacent to an active one:
+//! they would be one region). A polygon that faces no active cell this way either
+//! (outward faces of the level's shell, unplaced fragments) belongs to none, is
 //! never in a PVS and is counted apart (`triangles_in_no_cell`). A PVS's cost counts every
 //! polygon once, however many of its cells it faces.
 
@@ -49,6 +55,35 @@ impl CellPolygons {
         cell_of: impl Fn(crate::CellId) -> Option<u32>,
     ) -> Self {
         let mut polygons: Vec<Vec<u32>> = vec![Vec::new(); cells];
+        // Polygons facing inactive cells, and the active cells openly adjacent to those.
+        let mut facing_inactive: std::collections::HashMap<crate::CellId, Vec<u32>> = Default::default();
+        for p in cx.patches.iter().filter(|p| p.alive) {
+            for o in &p.occluders {
+                let c = p.cells[o.faces as usize];
+                if c != crate::complex::HULL && !cx.cells[c.idx()].active() {
+                    facing_inactive.entry(c).or_default().push(o.source.0);
+                }
+            }
+        }
+        if !facing_inactive.is_empty() {
+            for (k, p) in cx.patches.iter().enumerate() {
+                if !p.alive || p.cells[1] == crate::complex::HULL {
+                    continue;
+                }
+                for s in 0..2 {
+                    let (m, n) = (p.cells[s], p.cells[1 - s]);
+                    let Some(ps) = facing_inactive.get(&m) else { continue };
+                    if !cx.cells[n.idx()].active() {
+                        continue;
+                    }
+                    let Some(i) = cell_of(n) else { continue };
+                    if cx.open_pieces(crate::complex::PatchId(k as u32)).0.is_empty() {
+                        continue;
+                    }
+                    polygons[i as usize].extend_from_slice(ps);
+                }
+            }
+        }
         for (c, cell) in cx.active_cells() {
             let Some(i) = cell_of(c) else { continue };
             for &t in &cell.poly.tags {

@@ -65,11 +65,49 @@ pub struct PortalGraph {
     pub convex_cells: bool,
 }
 
+/// Adds the complex's crack links ([`CellComplex::cracks`]) to `portals`: each between two
+/// different graph cells (`cell_of`) becomes pieces of that pair's portal, oriented like it,
+/// or a new portal. A sight line may cross a crack, so the PVS must let it through.
+fn add_cracks(portals: &mut Vec<GraphPortal>, cx: &CellComplex, cell_of: impl Fn(crate::CellId) -> Option<u32>) {
+    if cx.cracks.is_empty() {
+        return;
+    }
+    let mut by_pair: std::collections::HashMap<(u32, u32), usize> = portals
+        .iter()
+        .enumerate()
+        .map(|(k, p)| ((p.cells[0].min(p.cells[1]), p.cells[0].max(p.cells[1])), k))
+        .collect();
+    for crack in &cx.cracks {
+        let (Some(a), Some(b)) = (cell_of(crack.cells[0]), cell_of(crack.cells[1])) else {
+            continue;
+        };
+        if a == b {
+            continue;
+        }
+        let k = *by_pair.entry((a.min(b), a.max(b))).or_insert_with(|| {
+            portals.push(GraphPortal {
+                cells: [a, b],
+                pieces: Vec::new(),
+            });
+            portals.len() - 1
+        });
+        // Crack pieces point from `crack.cells[0]` (in `a`) to `crack.cells[1]` (in `b`).
+        let forward = portals[k].cells == [a, b];
+        for q in &crack.pieces {
+            portals[k]
+                .pieces
+                .push(if forward { q.verts.clone() } else { q.reversed().verts });
+        }
+    }
+}
+
 impl PortalGraph {
     /// The portal graph of a partition: cell `i` is `partition.cells[i]`; one portal per
-    /// [`crate::decimate::MergedPortal`], with its convex pieces (possibly non-coplanar).
+    /// [`crate::decimate::MergedPortal`], with its convex pieces (possibly non-coplanar),
+    /// plus the complex's crack links ([`CellComplex::cracks`]) between different cells:
+    /// added as pieces of the pair's portal (a new portal if the pair has none).
     pub fn from_partition(cx: &CellComplex, partition: &Partition) -> Self {
-        let portals = partition
+        let mut portals: Vec<GraphPortal> = partition
             .portals(cx)
             .into_iter()
             .filter_map(|mp| {
@@ -81,6 +119,7 @@ impl PortalGraph {
                 })
             })
             .collect();
+        add_cracks(&mut portals, cx, |c| partition.cell_of(c).map(|i| i as u32));
         PortalGraph {
             cells: partition.len(),
             portals,
@@ -98,7 +137,7 @@ impl PortalGraph {
             index[c.idx()] = n;
             n += 1;
         }
-        let portals = cx
+        let mut portals: Vec<GraphPortal> = cx
             .portals
             .iter()
             .filter_map(|p| {
@@ -109,6 +148,7 @@ impl PortalGraph {
                 })
             })
             .collect();
+        add_cracks(&mut portals, cx, |c| Some(index[c.idx()]).filter(|&i| i != u32::MAX));
         (
             PortalGraph {
                 cells: n as usize,

@@ -75,6 +75,15 @@ pub struct PvsSettings {
     /// kept to compare against).
     #[serde(default = "yes")]
     pub clip_source: bool,
+    /// Keep `b` in the PVS of `a` only if `a` is also in the PVS of `b`. Sight is
+    /// symmetric (a segment from a point of `a` to a point of `b` is one from `b` to `a`),
+    /// and each set contains every cell its cell truly sees, so the intersection of a set
+    /// with the transposed sets still does: conservative. ericw-tools' `vis` uses the same
+    /// symmetry during its flow (`PortalCompleted` / `UpdateMightsee`: once no portal of a
+    /// leaf can see leaf X, X's pending portals drop that leaf from their might-see sets).
+    /// Off: each cell's flow alone (the rule before, kept to compare against).
+    #[serde(default = "yes")]
+    pub symmetric: bool,
 }
 
 fn yes() -> bool {
@@ -89,6 +98,7 @@ impl Default for PvsSettings {
             max_steps_per_source: 5_000,
             revisit_cells: false,
             clip_source: true,
+            symmetric: true,
         }
     }
 }
@@ -112,6 +122,10 @@ pub struct PvsStats {
     pub sources_truncated: usize,
     /// Branches not followed because of it (their bounds marked visible instead).
     pub branches_truncated: u64,
+    /// Cell pairs `(a, b)` dropped from `a`'s set because `b`'s set lacks `a`
+    /// ([`PvsSettings::symmetric`]).
+    #[serde(default)]
+    pub asymmetric_dropped: u64,
     /// Seconds for the base visibility.
     pub base_seconds: f64,
     /// Seconds for the portal flow.
@@ -524,6 +538,9 @@ fn compute_inner(graph: &PortalGraph, settings: &PvsSettings) -> Pvs {
         for (k, b) in base.iter().enumerate() {
             sets[from[k] as usize].union_with(b);
         }
+        if settings.symmetric {
+            stats.asymmetric_dropped = symmetrize(&mut sets);
+        }
         return Pvs { sets, stats };
     }
     // Portal flow, fewest base-visible cells first.
@@ -592,8 +609,28 @@ fn compute_inner(graph: &PortalGraph, settings: &PvsSettings) -> Pvs {
         bounds[k * words..(k + 1) * words].copy_from_slice(vis.words());
         sets[from[k] as usize].union_with(&vis);
     }
+    if settings.symmetric {
+        stats.asymmetric_dropped = symmetrize(&mut sets);
+    }
     stats.flow_seconds = t0.elapsed().as_secs_f64();
     Pvs { sets, stats }
+}
+
+/// Drops `b` from `sets[a]` when `a` is not in `sets[b]`; returns how many pairs it dropped.
+fn symmetrize(sets: &mut [BitSet]) -> u64 {
+    let drop: Vec<(usize, usize)> = (0..sets.len())
+        .flat_map(|a| {
+            let sets = &*sets;
+            sets[a]
+                .iter()
+                .filter(move |&b| !sets[b].contains(a))
+                .map(move |b| (a, b))
+        })
+        .collect();
+    for &(a, b) in &drop {
+        sets[a].words_mut()[b / 64] &= !(1u64 << (b % 64));
+    }
+    drop.len() as u64
 }
 
 #[cfg(test)]
@@ -645,6 +682,20 @@ mod tests {
         let pvs = compute(&mk(2.5), &PvsSettings::default());
         assert!(!pvs.sees(0, 3) && !pvs.sees(3, 0));
         assert!(pvs.sees(0, 2) && pvs.sees(1, 3));
+    }
+
+    /// The symmetric rule: `b` stays in `a`'s set only if `a` is in `b`'s.
+    #[test]
+    fn symmetrize_keeps_mutual_pairs_only() {
+        let mut sets: Vec<BitSet> = (0..3).map(|_| BitSet::new(3)).collect();
+        for (a, b) in [(0, 0), (1, 1), (2, 2), (0, 1), (1, 0), (0, 2)] {
+            sets[a].insert(b);
+        }
+        assert_eq!(symmetrize(&mut sets), 1);
+        assert!(sets[0].contains(1) && sets[1].contains(0) && !sets[0].contains(2));
+        assert_eq!(sets.iter().map(|s| s.count()).sum::<usize>(), 5);
+        // A second pass finds nothing.
+        assert_eq!(symmetrize(&mut sets), 0);
     }
 
     /// Regression (5194a07): two overlapping portals closer than the on-plane tolerance —
