@@ -591,9 +591,14 @@ fn run_model_inner(
     doc.settings.subdivision = settings.cells.subdivision.to_string();
     doc.subdivision_stats = cells.stats.to_json();
     doc.sealed_openings = cells.sealed.clone();
-    if full_steps.is_some() {
-        stages.push(("decimation: past the stop (weight curve)".into(), past_stop.max(0.0)));
-    }
+    // The rest of the decimation's time: past the stop (when asked), else the replayed
+    // partition and freeing the engine's state (after its timed collapses).
+    let rest = if full_steps.is_some() {
+        "decimation: past the stop (weight curve)"
+    } else {
+        "decimation: partition and clean-up"
+    };
+    stages.push((rest.into(), past_stop.max(0.0)));
     stages.push((DOCUMENT_STAGE.into(), t_doc.elapsed().as_secs_f64()));
     sample_peak(&mut memory, "result document");
     Ok(Run {
