@@ -149,6 +149,13 @@ enum Cmd {
         evaluate: bool,
         #[command(flatten)]
         eval: EvalArgs,
+        /// Also finish the decimation past the stop, for the weight curve: weight_curve.png
+        /// and .svg then draw the whole run (the part after the stop lighter), as
+        /// experiments do. Without it they draw the run to its stop (the collapses past it
+        /// cost up to a sixth of a large run). Implied by --export html (the viewer replays
+        /// the whole run).
+        #[arg(long)]
+        full_curve: bool,
     },
     /// Visibility of a run's cells: PVS, rendering cost, conservativeness, walkthroughs.
     ///
@@ -764,6 +771,7 @@ fn run(cli: Cli) -> Result<()> {
             export,
             evaluate,
             eval,
+            full_curve,
         } => with_output_dir(&out, || {
             run_decimation(
                 &model,
@@ -775,6 +783,7 @@ fn run(cli: Cli) -> Result<()> {
                 &snapshots,
                 &export,
                 (evaluate || eval.walkthrough).then(|| eval.settings()),
+                full_curve || export.iter().any(|e| e == "html"),
             )
         }),
         Cmd::Evaluate { dir, model, out, eval } => {
@@ -1276,6 +1285,7 @@ fn run_decimation(
     snapshot_counts: &[usize],
     export: &[String],
     evaluate: Option<portalfind::evaluate::Settings>,
+    full_curve: bool,
 ) -> Result<()> {
     use portalfind::decimate::{QueueMode, Settings};
     let t0 = Instant::now();
@@ -1298,8 +1308,14 @@ fn run_decimation(
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
     let (mut t2, mut shown) = (None::<Instant>, false);
-    // With the collapses of the run to the end, so the weight curve shows the run past its stop.
-    let run = pipeline::run_model_with_curve(
+    // With `full_curve`, also the collapses of the run to the end, so the weight curve shows
+    // the run past its stop.
+    let run_pipeline = if full_curve {
+        pipeline::run_model_with_curve
+    } else {
+        pipeline::run_model
+    };
+    let run = run_pipeline(
         &m,
         path,
         &settings,
@@ -1459,6 +1475,10 @@ fn run_decimation(
         );
         print_evaluation(&o, out)?;
     }
+    // The process ends after this: the complex (a polyhedron per cell), the decimation and
+    // the model go back to the system with it, not piece by piece (seconds at a million
+    // triangles, after the printed total).
+    std::mem::forget((cx, dec, doc, m));
     Ok(())
 }
 

@@ -334,6 +334,9 @@ pub struct Cells {
     /// Peak resident memory (MiB) at the end of the stages before the complex's own
     /// ([`peak_rss_mib`]; empty where it cannot be read).
     pub memory: Vec<(String, f64)>,
+    /// Timed stages after the complex's own: [`build_cells`]' checks ([`CHECKS_STAGE`];
+    /// empty from [`build_cells_unchecked`]).
+    pub checks: Vec<(String, f64)>,
 }
 
 /// The process's peak resident memory so far in MiB (Linux `VmHWM`; `None` elsewhere):
@@ -392,20 +395,29 @@ pub fn build_cells(
     settings: &CellSettings,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<Cells, PipelineError> {
-    let cells = build_cells_unchecked(model, label, settings, progress)?;
+    let mut cells = build_cells_unchecked(model, label, settings, progress)?;
     // The cheap structural check on every build: never decimate (or write) a broken
     // complex. The full validation (`CellComplex::validate`) is `portalfind complex`'s.
     // A model polygon crossing a cell (a wall the portal graph does not see) is as
     // invalid: `run` must not exit 0 on it.
-    cells
-        .cx
-        .check_valid()
-        .and_then(|()| cells.cx.check_no_crossing(model))
-        .map_err(|source| PipelineError::InvalidComplex {
-            model: label.display().to_string(),
-            source,
-        })?;
+    let t0 = Instant::now();
+    check(&cells.cx, model).map_err(|source| PipelineError::InvalidComplex {
+        model: label.display().to_string(),
+        source,
+    })?;
+    cells.checks.push((CHECKS_STAGE.into(), t0.elapsed().as_secs_f64()));
     Ok(cells)
+}
+
+/// The stage name of [`build_cells`]' checks (in [`Cells::checks`] and [`Run::stages`]).
+pub const CHECKS_STAGE: &str = "checks (cells valid, no crossing)";
+
+/// `check_valid`, then `check_no_crossing`, as one result: both read the complex only and
+/// run on two threads (rayon), and the error is the one the sequence would return
+/// (`check_valid`'s first), so the outcome does not depend on the thread count.
+fn check(cx: &CellComplex, model: &Model) -> Result<(), crate::complex::ComplexError> {
+    let (valid, crossing) = rayon::join(|| cx.check_valid(), || cx.check_no_crossing(model));
+    valid.and(crossing)
 }
 
 /// [`build_cells`] without the structural check (for `portalfind complex`, which runs the
@@ -467,6 +479,7 @@ fn build_cells_unsealed(
                 stages: vec![("delaunay tetrahedralization".into(), tt)],
                 sealed: Vec::new(),
                 memory,
+                checks: Vec::new(),
             })
         }
         Subdivision::Bsp => {
@@ -477,10 +490,19 @@ fn build_cells_unsealed(
                 stages: Vec::new(),
                 sealed: Vec::new(),
                 memory: Vec::new(),
+                checks: Vec::new(),
             })
         }
     }
 }
+
+/// The stage name of releasing the inactive geometry ([`CellComplex::release_inactive`] and
+/// returning free pages), in [`Run::stages`].
+pub const RELEASE_STAGE: &str = "release inactive geometry";
+
+/// The stage name of assembling the result document, in [`Run::stages`] (not in the
+/// document's own stages, which it records).
+pub const DOCUMENT_STAGE: &str = "result document";
 
 /// A finished run.
 pub struct Run {
@@ -546,12 +568,15 @@ fn run_model_inner(
     let mut cells = build_cells(model, model_path, &settings.cells, progress)?;
     stages.extend(std::mem::take(&mut cells.stages));
     stages.extend(cells.cx.stats.timings.iter().cloned());
+    stages.append(&mut cells.checks);
     let mut memory = std::mem::take(&mut cells.memory);
     sample_peak(&mut memory, "cell complex");
     // Checked: the geometry of inactive cells and unused patches is not read again, and
     // the decimation's memory reuses it.
+    let t_release = Instant::now();
     cells.cx.release_inactive();
     trim_heap();
+    stages.push((RELEASE_STAGE.into(), t_release.elapsed().as_secs_f64()));
     let mut report = |steps: usize, left: usize| {
         progress(Progress {
             stage: Stage::Decimate { cells: left },
@@ -572,13 +597,20 @@ fn run_model_inner(
     sample_peak(&mut memory, "decimation");
     stages.push(("decimation: initial weights".into(), dec.stats.init_seconds));
     stages.push(("decimation: collapses".into(), dec.stats.collapse_seconds));
+    let t_doc = Instant::now();
     let mut doc = output::result_doc(model, model_path, &cells.cx, &dec, &stages)?;
     doc.settings.subdivision = settings.cells.subdivision.to_string();
     doc.subdivision_stats = cells.stats.to_json();
     doc.sealed_openings = cells.sealed.clone();
-    if full_steps.is_some() {
-        stages.push(("decimation: past the stop (weight curve)".into(), past_stop.max(0.0)));
-    }
+    // The rest of the decimation's time: past the stop (when asked), else the replayed
+    // partition and freeing the engine's state (after its timed collapses).
+    let rest = if full_steps.is_some() {
+        "decimation: past the stop (weight curve)"
+    } else {
+        "decimation: partition and clean-up"
+    };
+    stages.push((rest.into(), past_stop.max(0.0)));
+    stages.push((DOCUMENT_STAGE.into(), t_doc.elapsed().as_secs_f64()));
     sample_peak(&mut memory, "result document");
     Ok(Run {
         cx: cells.cx,

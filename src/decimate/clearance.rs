@@ -683,16 +683,27 @@ fn sliced_section(cx: &CellComplex, c: &Comp, frame: &Frame, k: usize) -> f64 {
     if hi.partial_cmp(&lo) != Some(Ordering::Greater) || k == 0 {
         return 0.0;
     }
-    (0..k)
-        .map(|i| {
-            let t = lo + (hi - lo) * (i as f64 + 0.5) / k as f64;
-            c.members
-                .iter()
-                .map(|&m| cut_area(&cx.cells[m as usize].poly, frame, t))
-                .sum::<f64>()
-        })
-        .fold(0.0, f64::max)
+    // Each cut's area is summed by one task in the members' order, so the value does not
+    // depend on the thread count; cuts of a large component run in parallel (rayon).
+    let slice = |i: usize| {
+        let t = lo + (hi - lo) * (i as f64 + 0.5) / k as f64;
+        c.members
+            .iter()
+            .map(|&m| cut_area(&cx.cells[m as usize].poly, frame, t))
+            .sum::<f64>()
+    };
+    let areas: Vec<f64> = if c.members.len() >= PARALLEL_MEMBERS {
+        (0..k).into_par_iter().with_max_len(1).map(slice).collect()
+    } else {
+        (0..k).map(slice).collect()
+    };
+    areas.into_iter().fold(0.0, f64::max)
 }
+
+/// Components with at least this many cells have their gate's geometry (parallel cuts,
+/// refined passages) computed on several threads; smaller ones on one (the values are the
+/// same either way).
+const PARALLEL_MEMBERS: usize = 2048;
 
 /// Signed height of `p` above `frame`'s plane.
 fn height(frame: &Frame, p: &[f64; 3]) -> f64 {
@@ -876,16 +887,28 @@ fn run_inner(
             } else {
                 (b, a)
             };
-            let mut s2 = l.saddle;
+            // The portals between them, in the members' order; their refined passages are
+            // independent (in parallel for a large component) and taken by `max`, whose
+            // value does not depend on the order.
+            let mut between: Vec<u32> = Vec::new();
             for &m in &comps[small].members {
                 for &k in &cell_portals[m as usize] {
                     let [x, y] = cx.portals[k as usize].cells;
                     let o = if x.0 == m { y.0 } else { x.0 };
                     if find(&mut owner, o) as usize == other {
-                        s2 = s2.max(field.refined_passage(cx, k as usize));
+                        between.push(k);
                     }
                 }
             }
+            let refined: Vec<f64> = if between.len() >= PARALLEL_MEMBERS / 64 {
+                between
+                    .par_iter()
+                    .map(|&k| field.refined_passage(cx, k as usize))
+                    .collect()
+            } else {
+                between.iter().map(|&k| field.refined_passage(cx, k as usize)).collect()
+            };
+            let s2 = refined.into_iter().fold(l.saddle, f64::max);
             let mut l2 = l;
             l2.saddle = s2;
             l2.refined = true;

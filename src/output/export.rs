@@ -41,8 +41,9 @@ impl ExportContext<'_> {
     }
 }
 
-/// One output format.
-pub trait Exporter {
+/// One output format. Exporters are `Send + Sync` (they hold no state): a set's exporters
+/// write their files in parallel.
+pub trait Exporter: Send + Sync {
     /// A short name (for messages).
     fn name(&self) -> &'static str;
 

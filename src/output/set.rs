@@ -608,16 +608,34 @@ fn chosen(x: &dyn Exporter, export: &[String]) -> bool {
 }
 
 fn stage(list: &[Box<dyn Exporter>], ctx: &ExportContext<'_>, opts: &SetOptions<'_>) -> Result<Staged, OutputError> {
+    use rayon::prelude::*;
     let mut written: Vec<Option<Vec<PathBuf>>> = vec![None; list.len()];
     let mut order = Vec::new();
     let on = |i: &usize| chosen(list[*i].as_ref(), opts.export);
-    let sequence = (0..list.len())
-        .filter(|&i| !list[i].last())
-        .chain((0..list.len()).filter(|&i| list[i].last()))
-        .filter(on);
-    for i in sequence {
-        interrupted()?;
-        let paths = list[i].write(ctx)?;
+    // The exporters write distinct files into the staging directory and read the run
+    // only, so those that are not `last` run in parallel (rayon); the results are taken in
+    // the sequence order (file order, and the first error in that order, as one thread
+    // would); then the `last` ones (result.json), in order.
+    let first: Vec<usize> = (0..list.len()).filter(|&i| !list[i].last()).filter(on).collect();
+    let last: Vec<usize> = (0..list.len()).filter(|&i| list[i].last()).filter(on).collect();
+    let parallel: Vec<Result<Vec<PathBuf>, OutputError>> = first
+        .par_iter()
+        .with_max_len(1)
+        .map(|&i| {
+            interrupted()?;
+            list[i].write(ctx)
+        })
+        .collect();
+    let results = first.iter().copied().zip(parallel).map(|(i, r)| (i, Some(r)));
+    let results = results.chain(last.iter().map(|&i| (i, None)));
+    for (i, r) in results {
+        let paths = match r {
+            Some(r) => r?,
+            None => {
+                interrupted()?;
+                list[i].write(ctx)?
+            }
+        };
         order.extend(
             paths
                 .iter()
@@ -627,15 +645,26 @@ fn stage(list: &[Box<dyn Exporter>], ctx: &ExportContext<'_>, opts: &SetOptions<
         written[i] = Some(paths);
     }
     interrupted()?;
+    let paths: Vec<PathBuf> = written.into_iter().flatten().flatten().collect();
+    // Each file hashed by one thread, in parallel; taken in order (the first error too).
+    let hashed: Vec<Result<(String, FileEntry), OutputError>> = paths
+        .par_iter()
+        .with_max_len(1)
+        .map(|p| {
+            let name = p
+                .file_name()
+                .ok_or_else(|| OutputError::NoFileName { path: p.clone() })?
+                .to_string_lossy()
+                .into_owned();
+            let entry = entry_of_file(&name, p)?;
+            Ok((name, entry))
+        })
+        .collect();
     let mut files = Vec::new();
     let mut entries = Vec::new();
-    for p in written.into_iter().flatten().flatten() {
-        let name = p
-            .file_name()
-            .ok_or_else(|| OutputError::NoFileName { path: p.clone() })?
-            .to_string_lossy()
-            .into_owned();
-        entries.push(entry_of_file(&name, &p)?);
+    for r in hashed {
+        let (name, entry) = r?;
+        entries.push(entry);
         files.push(name);
     }
     fault_stall()?;
