@@ -295,6 +295,15 @@ impl ConvexPolyhedron {
         }
     }
 
+    /// [`cut`](Self::cut) with one On distance and no fallback: a cell cut together with
+    /// a neighbour must classify their shared vertices as the neighbour's cut did (its
+    /// [`PolyhedronSplit::on_dist`]), so that the crossings on shared edges are the same
+    /// bits (`crossing` is canonical per edge).
+    pub fn cut_with_eps(&self, plane: &Plane, tol: &Tolerances, new_tag: u32, on_dist: f64) -> Cut {
+        self.cut_within(&Classifier::with_eps(plane, on_dist), plane, tol, new_tag)
+            .0
+    }
+
     /// [`cut`](Self::cut) with one classifier; the flag is true when the cut was refused
     /// only because its pieces would not have been valid.
     fn cut_within(&self, cl: &Classifier, plane: &Plane, tol: &Tolerances, new_tag: u32) -> (Cut, bool) {
