@@ -707,7 +707,7 @@ impl CellComplex {
         mut bad: Vec<CellId>,
     ) -> Option<(CellId, CellId)> {
         let eps = s.on_dist;
-        if !(eps > 0.0) {
+        if eps.is_nan() || eps <= 0.0 {
             return None; // without an On band the shared crossings need not agree
         }
         let relaxed = self.tol.sealing();

@@ -101,8 +101,9 @@ impl CellComplex {
         self.check_portals()
     }
 
-    /// Every alive patch names alive cells (or the hull) that hold it.
-    fn check_patch_cells(&self) -> Result<(), ComplexError> {
+    /// Every alive patch names alive cells (or the hull) that hold it (part of
+    /// [`check_valid`](Self::check_valid)).
+    pub fn check_patch_cells(&self) -> Result<(), ComplexError> {
         for (pi, p) in self.patches.iter().enumerate() {
             if !p.alive {
                 continue;
@@ -124,8 +125,9 @@ impl CellComplex {
         Ok(())
     }
 
-    /// Each portal pair is listed once, ordered, and joins two active cells.
-    fn check_portals(&self) -> Result<(), ComplexError> {
+    /// Each portal pair is listed once, ordered, and joins two active cells (part of
+    /// [`check_valid`](Self::check_valid)).
+    pub fn check_portals(&self) -> Result<(), ComplexError> {
         let mut seen = std::collections::HashSet::with_capacity(self.portals.len());
         for p in &self.portals {
             let [a, b] = p.cells;
