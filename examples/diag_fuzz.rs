@@ -37,7 +37,7 @@ fn main() {
         return time_check(&args[2], n);
     }
     let p = args.get(1).expect("file");
-    let text = std::fs::read_to_string(&p).expect("read");
+    let text = std::fs::read_to_string(p).expect("read");
     let m = match portalfind::model::parse_obj_str("fuzz.obj", &text) {
         Ok(m) => m,
         Err(e) => return println!("refused: {e}"),
