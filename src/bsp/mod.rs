@@ -80,6 +80,7 @@
 //! volume. Then the complex's own portal graph and exterior removal stages run as
 //! for the Delaunay complex, and [`CellComplex::validate`] checks the same invariants.
 
+use std::collections::HashMap;
 use std::time::Instant;
 
 use serde::Serialize;
@@ -205,6 +206,35 @@ enum Place {
 }
 
 /// Classifies `f` against the unit-normal plane `pl`.
+/// Fragments of other supports than the node's, sorted to the sides of `plane`:
+/// (front, back, fragments split). By the plane tolerance, without the sliver rule
+/// (`split_exact`): a sliver part dropped, or sent to the wrong side because it lies
+/// within `coplanar` of the plane, would leave its polygon crossing a leaf. (A small piece
+/// of a differently oriented polygon lies within `coplanar` of many planes, so only the
+/// chosen support's fragments are consumed.)
+fn sort_frags(frags: Vec<Frag>, plane: &Plane, tol: &Tolerances) -> (Vec<Frag>, Vec<Frag>, usize) {
+    let (mut front, mut back, mut n) = (Vec::new(), Vec::new(), 0);
+    for f in frags {
+        match f.poly.split_exact(plane, tol) {
+            PolygonSplit::Split(a, b) => {
+                n += 1;
+                front.push(Frag::new(a, f.source, f.support));
+                back.push(Frag::new(b, f.source, f.support));
+            }
+            PolygonSplit::Front => front.push(f),
+            PolygonSplit::Back => back.push(f),
+            PolygonSplit::Coplanar => {
+                if dot(&f.poly.area_vector(), &plane.n) >= 0.0 {
+                    front.push(f)
+                } else {
+                    back.push(f)
+                }
+            }
+        }
+    }
+    (front, back, n)
+}
+
 fn place(f: &Frag, pl: &Plane, eps: f64) -> Place {
     let d = pl.eval(&f.centre);
     if d - f.radius > eps {
@@ -302,7 +332,21 @@ pub fn build_complex_with(model: &Model, settings: &BspSettings) -> (CellComplex
     let t1 = Instant::now();
     let mut depth_sum = 0usize;
     let mut stack: Vec<(CellId, Vec<Frag>, usize)> = vec![(CellId(0), frags, 0)];
+    // Regions cut as a neighbour of a node's cut (`try_commit_split` cuts a neighbour by
+    // the node's plane when subdividing its face would leave it non-convex): the plane and
+    // the pieces, so a pending region's fragments follow its pieces.
+    let mut replaced: HashMap<CellId, (u32, CellId, CellId)> = HashMap::new();
     while let Some((c, frags, depth)) = stack.pop() {
+        if !cx.cells[c.idx()].alive {
+            let Some(&(s, f, bk)) = replaced.get(&c) else {
+                continue;
+            };
+            let plane = planes[s as usize];
+            let (fr, bf, _) = sort_frags(frags, &plane, &tol);
+            stack.push((bk, bf, depth));
+            stack.push((f, fr, depth));
+            continue;
+        }
         if frags.is_empty() {
             b.stats.leaves += 1;
             b.stats.depth_max = b.stats.depth_max.max(depth);
@@ -312,6 +356,13 @@ pub fn build_complex_with(model: &Model, settings: &BspSettings) -> (CellComplex
         let s = b.choose(&frags);
         for (child, fr) in b.node(&mut cx, c, s, frags) {
             stack.push((child, fr, depth + 1));
+        }
+        for (o, f, bk) in std::mem::take(&mut cx.neighbour_log) {
+            if !stack.iter().any(|(x, _, _)| *x == o) {
+                // A finished leaf: its two pieces are leaves.
+                b.stats.leaves += 1;
+            }
+            replaced.insert(o, (s, f, bk));
         }
     }
     let choose = b.choose_seconds;
@@ -443,34 +494,16 @@ impl Builder<'_> {
         self.used[s as usize] = true;
         let plane = self.planes[s as usize];
         let tol = self.tol;
-        let (mut on, mut front, mut back) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut on, mut rest) = (Vec::new(), Vec::new());
         for f in frags {
             if f.support == s {
                 on.push(f);
-                continue;
-            }
-            // Other fragments go by the plane tolerance, without the sliver rule
-            // (`split_exact`): a sliver part dropped, or sent to the wrong side because it
-            // lies within `coplanar` of the plane, would leave its polygon crossing a
-            // leaf. (A small piece of a differently oriented polygon lies within `coplanar`
-            // of many planes, so only the chosen support's fragments are consumed.)
-            match f.poly.split_exact(&plane, &tol) {
-                PolygonSplit::Split(a, b) => {
-                    self.stats.polygon_splits += 1;
-                    front.push(Frag::new(a, f.source, f.support));
-                    back.push(Frag::new(b, f.source, f.support));
-                }
-                PolygonSplit::Front => front.push(f),
-                PolygonSplit::Back => back.push(f),
-                PolygonSplit::Coplanar => {
-                    if dot(&f.poly.area_vector(), &plane.n) >= 0.0 {
-                        front.push(f)
-                    } else {
-                        back.push(f)
-                    }
-                }
+            } else {
+                rest.push(f);
             }
         }
+        let (mut front, back, n_split) = sort_frags(rest, &plane, &tol);
+        self.stats.polygon_splits += n_split;
         self.stats.fragments_consumed += on.len();
         let new_patch = cx.patches.len() as u32;
         let region = &cx.cells[c.idx()].poly;

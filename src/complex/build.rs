@@ -180,6 +180,7 @@ impl CellComplex {
             hull_volume,
             polygon_planes: Vec::new(),
             hull_through: Vec::new(),
+            neighbour_log: Vec::new(),
         }
     }
 
@@ -333,6 +334,16 @@ impl CellComplex {
                     };
                     match split {
                         Some((f, b)) => {
+                            // Neighbours cut together with c: their pieces are new cells
+                            // of their tetrahedra, to be visited like any other.
+                            for (o, fo, bo) in std::mem::take(&mut self.neighbour_log) {
+                                pl.on_split(o, fo, bo, &self.cells);
+                                for x in [fo, bo] {
+                                    if pl.mark(x, epoch) {
+                                        pl.queue.push_back(x);
+                                    }
+                                }
+                            }
                             // Faces of the pieces other than the section may lie within
                             // the attach distance of the plane too: a face nearly coplanar
                             // with it that the plane crossed at a shallow angle (a noisy
@@ -422,6 +433,13 @@ impl CellComplex {
                 }
                 for (s, ps) in &groups {
                     if let Some((f, b)) = self.seal_split(model, c, &supports[*s], ps, of) {
+                        for (o, fo, bo) in std::mem::take(&mut self.neighbour_log) {
+                            pl.on_split(o, fo, bo, &self.cells);
+                            if self.cells[o.idx()].tet == Some(t) {
+                                work.push(fo);
+                                work.push(bo);
+                            }
+                        }
                         pl.on_split(c, f, b, &self.cells);
                         work.push(f);
                         work.push(b);
@@ -647,6 +665,16 @@ impl CellComplex {
     /// cut divides stays a valid polyhedron after subdividing its face the same way (the
     /// split is all-or-nothing); `None` changes nothing and the caller treats the split as
     /// refused.
+    ///
+    /// When subdividing a neighbour's face would leave that neighbour non-convex beyond
+    /// tolerance (the part of the face on one side is a sliver whose plane, measured from
+    /// constructed vertices a rounding error off the face's plane, tilts: a far vertex of
+    /// the neighbour then lies in front of it), the neighbour is **cut by the same plane
+    /// too** ([`joint_split`](Self::joint_split)): a cut by a plane keeps each piece convex
+    /// (`cut` checks its pieces), the sliver face then lies in a piece whose vertices are
+    /// all near it, and the crossings on the shared face are bit-identical because both
+    /// cuts classify with the same On distance. Cut neighbours are appended to
+    /// `neighbour_log` for the caller.
     pub(crate) fn try_commit_split(
         &mut self,
         c: CellId,
@@ -654,25 +682,178 @@ impl CellComplex {
         s: PolyhedronSplit,
         occluders: Vec<Occluder>,
     ) -> Option<(CellId, CellId)> {
-        let (plan, ok) = self.plan_neighbours(c, plane, &s);
-        if !ok {
+        let (plan, ok, bad) = self.plan_neighbours(c, plane, &s, &[]);
+        if ok {
+            let mut split = Vec::new();
+            return Some(self.apply_split(c, plane, s, occluders, plan, &mut split));
+        }
+        if bad.is_empty() {
             return None;
         }
-        Some(self.apply_split(c, plane, s, occluders, plan))
+        self.joint_split(c, plane, s, occluders, bad)
+    }
+
+    /// Splits `c` by `plane` (its cut `s`) together with the neighbours `bad` (and, if
+    /// their own neighbours then fail, those too, up to [`MAX_JOINT_CUTS`] cells), each
+    /// cut with `s.on_dist` and the sealing thresholds. All-or-nothing: applies the splits
+    /// one after another (patches shared by two cut cells are split once, by the first,
+    /// and the second's pieces take the two parts), checks every neighbour whose face was
+    /// subdivided, and undoes everything when one fails or a cut is refused.
+    fn joint_split(
+        &mut self,
+        c: CellId,
+        plane: &Plane,
+        s: PolyhedronSplit,
+        occluders: Vec<Occluder>,
+        mut bad: Vec<CellId>,
+    ) -> Option<(CellId, CellId)> {
+        let eps = s.on_dist;
+        if eps.is_nan() || eps <= 0.0 {
+            return None; // without an On band the shared crossings need not agree
+        }
+        let relaxed = self.tol.sealing();
+        let mut members: Vec<CellId> = vec![c];
+        loop {
+            for o in bad.drain(..) {
+                if members.len() >= MAX_JOINT_CUTS || members.contains(&o) || !self.cells[o.idx()].alive {
+                    return None;
+                }
+                members.push(o);
+            }
+            // The members' cuts on their current polyhedra (the section tag is renumbered
+            // when applied).
+            let mut cuts: Vec<PolyhedronSplit> = vec![s.clone()];
+            for &o in &members[1..] {
+                match self.cells[o.idx()].poly.cut_with_eps(plane, &relaxed, 0, eps) {
+                    Cut::Split(so) => cuts.push(*so),
+                    _ => return None,
+                }
+            }
+            // Undo information: the patches of the members' faces, the polyhedra of the
+            // cells around them, the counts.
+            let (ncells, npatches, stats) = (self.cells.len(), self.patches.len(), self.stats.clone());
+            let mut saved_patches: Vec<(u32, Patch)> = Vec::new();
+            let mut saved_cells: Vec<(CellId, ConvexPolyhedron, bool)> = Vec::new();
+            for &m in &members {
+                for &t in &self.cells[m.idx()].poly.tags {
+                    if !saved_patches.iter().any(|(x, _)| *x == t) {
+                        saved_patches.push((t, self.patches[t as usize].clone()));
+                    }
+                    let p = &self.patches[t as usize];
+                    for n in p.cells {
+                        if n != HULL && !saved_cells.iter().any(|(x, _, _)| *x == n) {
+                            saved_cells.push((n, self.cells[n.idx()].poly.clone(), self.cells[n.idx()].alive));
+                        }
+                    }
+                }
+            }
+            let mut split: Vec<(u32, u32)> = Vec::new();
+            let mut touched: Vec<CellId> = Vec::new();
+            let mut pieces: Vec<(CellId, CellId)> = Vec::new();
+            let mut failed = false;
+            for (k, mut cut) in cuts.into_iter().enumerate() {
+                let m = members[k];
+                // Number the section as the next patch.
+                let next = self.patches.len() as u32;
+                *cut.front.tags.last_mut().expect("section") = next;
+                *cut.back.tags.last_mut().expect("section") = next;
+                // Faces on patches an earlier member split: the back part is that patch's
+                // new back patch.
+                let mut moved: Vec<u32> = Vec::new();
+                for (t, t2) in &split {
+                    if let Some(i) = cut.back.tags.iter().position(|x| x == t) {
+                        cut.back.tags[i] = *t2;
+                        moved.push(*t2);
+                    }
+                }
+                // Check failures are collected after applying (below); a structural one
+                // (a neighbour's face that does not straddle) fails the whole split.
+                let (plan, ok, bad_here) = self.plan_neighbours(m, plane, &cut, &members);
+                if !ok && bad_here.is_empty() {
+                    failed = true;
+                }
+                touched.extend(plan.iter().map(|(o, _)| *o));
+                let occ = if k == 0 { occluders.clone() } else { Vec::new() };
+                let (f, b) = self.apply_split(m, plane, cut, occ, plan, &mut split);
+                for t2 in moved {
+                    let p = &mut self.patches[t2 as usize];
+                    match p.cells.iter().position(|&x| x == m) {
+                        Some(side) => p.cells[side] = b,
+                        None => failed = true,
+                    }
+                }
+                pieces.push((f, b));
+            }
+            touched.sort_unstable();
+            touched.dedup();
+            let mut next_bad: Vec<CellId> = Vec::new();
+            for &o in &touched {
+                let cell = &self.cells[o.idx()];
+                if cell.alive && !cell.flat && cell.poly.check(&self.tol).is_err() {
+                    next_bad.push(o);
+                }
+            }
+            // Every face of the pieces must be on a patch that lists the piece.
+            for &(f, b) in &pieces {
+                for x in [f, b] {
+                    for &t in &self.cells[x.idx()].poly.tags {
+                        if !self.patches[t as usize].cells.contains(&x) {
+                            failed = true;
+                        }
+                    }
+                }
+            }
+            // No patch the splits touched may still name a replaced cell.
+            let named = saved_patches
+                .iter()
+                .map(|(t, _)| *t as usize)
+                .chain(npatches..self.patches.len());
+            for t in named {
+                let p = &self.patches[t];
+                if p.alive && p.cells.iter().any(|&x| x != HULL && !self.cells[x.idx()].alive) {
+                    failed = true;
+                }
+            }
+            if !failed && next_bad.is_empty() {
+                self.stats.neighbour_cuts += members.len() - 1;
+                for (k, &m) in members.iter().enumerate().skip(1) {
+                    self.neighbour_log.push((m, pieces[k].0, pieces[k].1));
+                }
+                return Some(pieces[0]);
+            }
+            // Undo.
+            self.cells.truncate(ncells);
+            self.patches.truncate(npatches);
+            self.stats = stats;
+            for (t, p) in saved_patches {
+                self.patches[t as usize] = p;
+            }
+            for (n, poly, alive) in saved_cells {
+                self.cells[n.idx()].poly = poly;
+                self.cells[n.idx()].alive = alive;
+            }
+            if failed || next_bad.is_empty() {
+                return None;
+            }
+            bad = next_bad;
+        }
     }
 
     /// The neighbours' polyhedra after subdividing their faces on the patches that the
     /// cut of `c` divides (tags numbered as [`apply_split`](Self::apply_split) will number
-    /// the new patches), and whether all of them are valid (flat cells, exempt from the
-    /// geometric check, only need the subdivision to happen).
+    /// the new patches), except across to the cells of `skip` (cut as well); whether all
+    /// of them are valid (flat cells, exempt from the geometric check, only need the
+    /// subdivision to happen); and the neighbours that subdivided but failed the check.
     fn plan_neighbours(
         &self,
         c: CellId,
         plane: &Plane,
         s: &PolyhedronSplit,
-    ) -> (Vec<(CellId, ConvexPolyhedron)>, bool) {
+        skip: &[CellId],
+    ) -> (Vec<(CellId, ConvexPolyhedron)>, bool, Vec<CellId>) {
         let mut plan: Vec<(CellId, ConvexPolyhedron)> = Vec::new();
         let mut ok = true;
+        let mut structural = false;
         let mut next_patch = self.patches.len() as u32 + 1; // after the section's patch
         for &t in &self.cells[c.idx()].poly.tags {
             if !(s.front.tags.contains(&t) && s.back.tags.contains(&t)) {
@@ -682,7 +863,7 @@ impl CellComplex {
             next_patch += 1;
             let p = &self.patches[t as usize];
             let other = if p.cells[0] == c { p.cells[1] } else { p.cells[0] };
-            if other == HULL {
+            if other == HULL || skip.contains(&other) {
                 continue;
             }
             let k = match plan.iter().position(|(o, _)| *o == other) {
@@ -696,16 +877,29 @@ impl CellComplex {
             match nb.tags.iter().position(|&x| x == t) {
                 // The neighbour's face is reversed: its "front" along `plane` is the same
                 // half-space, so the front part keeps tag t.
-                Some(fi) => ok &= nb.split_face_within(fi, plane, s.on_dist, t, t2).is_some(),
-                None => ok = false,
+                Some(fi) => {
+                    if nb.split_face_within(fi, plane, s.on_dist, t, t2).is_none() {
+                        ok = false;
+                        structural = true;
+                    }
+                }
+                None => {
+                    ok = false;
+                    structural = true;
+                }
             }
         }
+        let mut bad = Vec::new();
         for (o, poly) in &plan {
             if !self.cells[o.idx()].flat && poly.check(&self.tol).is_err() {
                 ok = false;
+                bad.push(*o);
             }
         }
-        (plan, ok)
+        if structural {
+            bad.clear();
+        }
+        (plan, ok, bad)
     }
 
     /// Replaces cell `c` by the two pieces of `s` (its cut by `plane`, made with the tag
@@ -714,7 +908,8 @@ impl CellComplex {
     /// move to the piece they lie in or are split in two, and the neighbours across split
     /// patches subdivide their faces. Returns (front, back). Unlike
     /// [`try_commit_split`](Self::try_commit_split), commits even when a neighbour's face
-    /// could not be subdivided validly (counted in `splits_refused`).
+    /// could not be subdivided validly and cutting the neighbours too failed (counted in
+    /// `splits_refused`).
     pub(crate) fn commit_split(
         &mut self,
         c: CellId,
@@ -722,11 +917,13 @@ impl CellComplex {
         s: PolyhedronSplit,
         occluders: Vec<Occluder>,
     ) -> (CellId, CellId) {
-        let (plan, ok) = self.plan_neighbours(c, plane, &s);
-        if !ok {
-            self.stats.splits_refused += 1;
+        if let Some(r) = self.try_commit_split(c, plane, s.clone(), occluders.clone()) {
+            return r;
         }
-        self.apply_split(c, plane, s, occluders, plan)
+        self.stats.splits_refused += 1;
+        let (plan, _, _) = self.plan_neighbours(c, plane, &s, &[]);
+        let mut split = Vec::new();
+        self.apply_split(c, plane, s, occluders, plan, &mut split)
     }
 
     fn apply_split(
@@ -736,6 +933,7 @@ impl CellComplex {
         s: PolyhedronSplit,
         occluders: Vec<Occluder>,
         plan: Vec<(CellId, ConvexPolyhedron)>,
+        split: &mut Vec<(u32, u32)>,
     ) -> (CellId, CellId) {
         let (fid, bid) = (CellId(self.cells.len() as u32), CellId(self.cells.len() as u32 + 1));
         let tet = self.cells[c.idx()].tet;
@@ -760,6 +958,7 @@ impl CellComplex {
                 (false, true) => self.patches[t].cells[side] = bid,
                 (true, true) => {
                     let t2 = self.patches.len() as u32;
+                    split.push((t as u32, t2));
                     // Relabel the back piece's part of face t.
                     let k = back.tags.iter().position(|&x| x as usize == t).expect("in back");
                     back.tags[k] = t2;
@@ -825,6 +1024,10 @@ impl CellComplex {
 }
 
 type P3Key = [u64; 3];
+
+/// Most cells one plane splits together in [`CellComplex::joint_split`] (the split cell
+/// and the neighbours whose subdivided faces would not be convex), so a cascade is bounded.
+const MAX_JOINT_CUTS: usize = 4;
 
 /// Orthogonal projection of `p` onto `plane`.
 pub(crate) fn project(plane: &Plane, p: &[f64; 3]) -> [f64; 3] {

@@ -171,6 +171,10 @@ pub struct ComplexStats {
     /// Splits refused because a piece would have been a sliver (the polygon was attached
     /// to the nearby face instead, or left unplaced).
     pub splits_refused: usize,
+    /// Neighbours cut by the splitting plane together with the split cell, because
+    /// subdividing their face would have left them non-convex beyond tolerance (see
+    /// `try_commit_split`).
+    pub neighbour_cuts: usize,
     /// Splits that sealed a crack: a cell whose section by a support plane is covered by
     /// that plane's polygons up to cracks, split after placement (see `seal_cracks`).
     pub cells_sealed: usize,
@@ -236,6 +240,10 @@ pub struct CellComplex {
     /// Cells that reach an open hull face through flat cells, with a point there (found by
     /// the portal graph stage, used by the exterior flood fill).
     hull_through: Vec<(CellId, [f64; 3])>,
+    /// Neighbours cut together with a split cell (`try_commit_split`): (old cell, front
+    /// piece, back piece), appended by each committed split and drained by the caller
+    /// (the Delaunay placer and the BSP tree track live cells).
+    pub(crate) neighbour_log: Vec<(CellId, CellId, CellId)>,
 }
 
 impl CellComplex {
@@ -263,6 +271,7 @@ impl CellComplex {
             hull_volume,
             polygon_planes,
             hull_through: Vec::new(),
+            neighbour_log: Vec::new(),
         }
     }
 

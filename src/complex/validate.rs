@@ -90,8 +90,63 @@ impl CellComplex {
     /// a valid convex polyhedron (flat ones exempt), cells and patches name each other,
     /// and the cell volumes sum to the hull volume. A complex that fails it must not be
     /// used: callers (`run`, `complex`, experiments) should turn the error into a failure.
+    ///
+    /// Also (one pass over the patches and one hash-set pass over the portals): every
+    /// alive patch's cells are alive and hold it, and the portal list is consistent (each
+    /// pair once, ordered, between active cells), so `run` never decimates a complex that
+    /// `validate` would reject for its topology or its portals.
     pub fn check_valid(&self) -> Result<(), ComplexError> {
-        self.check_cells().map(|_| ())
+        self.check_cells()?;
+        self.check_patch_cells()?;
+        self.check_portals()
+    }
+
+    /// Every alive patch names alive cells (or the hull) that hold it (part of
+    /// [`check_valid`](Self::check_valid)).
+    pub fn check_patch_cells(&self) -> Result<(), ComplexError> {
+        for (pi, p) in self.patches.iter().enumerate() {
+            if !p.alive {
+                continue;
+            }
+            for &c in &p.cells {
+                if c == HULL {
+                    continue;
+                }
+                let cell = &self.cells[c.idx()];
+                if !cell.alive || !cell.poly.tags.contains(&(pi as u32)) {
+                    return Err(ComplexError::Topology {
+                        cell: c.0,
+                        patch: pi as u32,
+                        why: "cell does not hold the patch",
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Each portal pair is listed once, ordered, and joins two active cells (part of
+    /// [`check_valid`](Self::check_valid)).
+    pub fn check_portals(&self) -> Result<(), ComplexError> {
+        let mut seen = std::collections::HashSet::with_capacity(self.portals.len());
+        for p in &self.portals {
+            let [a, b] = p.cells;
+            if !seen.insert((a, b)) {
+                return Err(ComplexError::Portal {
+                    a: a.0,
+                    b: b.0,
+                    why: "pair listed twice",
+                });
+            }
+            if a >= b || !self.cells[a.idx()].active() || !self.cells[b.idx()].active() {
+                return Err(ComplexError::Portal {
+                    a: a.0,
+                    b: b.0,
+                    why: "unordered pair or inactive cell",
+                });
+            }
+        }
+        Ok(())
     }
 
     fn check_cells(&self) -> Result<(usize, f64), ComplexError> {
@@ -222,24 +277,7 @@ impl CellComplex {
                     .max(((open + occluded.min(area - open)) - area).abs() / area);
             }
         }
-        let mut seen = std::collections::HashSet::new();
-        for p in &self.portals {
-            let [a, b] = p.cells;
-            if !seen.insert((a, b)) {
-                return Err(ComplexError::Portal {
-                    a: a.0,
-                    b: b.0,
-                    why: "pair listed twice",
-                });
-            }
-            if a >= b || !self.cells[a.idx()].active() || !self.cells[b.idx()].active() {
-                return Err(ComplexError::Portal {
-                    a: a.0,
-                    b: b.0,
-                    why: "unordered pair or inactive cell",
-                });
-            }
-        }
+        self.check_portals()?;
         self.check_no_crossing(model)?;
         Ok(v)
     }

@@ -280,19 +280,70 @@ impl ConvexPolyhedron {
         // First with the plane tolerance; when that gives no valid pieces (typically a
         // vertex a hair off the plane makes a sliver edge or face), once more with
         // vertices within the weld distance on the plane.
-        // Last, with no On band at all (every vertex strictly on the side of the sign of
+        // Then with no On band at all (every vertex strictly on the side of the sign of
         // its distance): a face nearly parallel to the plane then cannot have a run of On
         // vertices between its front and back parts, which no assignment makes conforming.
         match self.cut_within(&Classifier::new(plane, tol), plane, tol, new_tag) {
             (c, false) => c,
             (_, true) => match self.cut_within(&Classifier::snapping(plane, tol), plane, tol, new_tag) {
                 (c, false) => c,
-                (_, true) => {
-                    self.cut_within(&Classifier::with_eps(plane, 0.0), plane, tol, new_tag)
-                        .0
-                }
+                (_, true) => match self.cut_within(&Classifier::with_eps(plane, 0.0), plane, tol, new_tag) {
+                    (c, false) => c,
+                    (c, true) => self.cut_in_gaps(plane, tol, new_tag).unwrap_or(c),
+                },
             },
         }
+    }
+
+    /// The last fallback of [`cut`](Self::cut): the On band put into a gap of the
+    /// vertices' distances instead of at a fixed width. A plane through a vertex and
+    /// (nearly) through an edge of one face, with vertices a few nanometres off it, leaves
+    /// every fixed band inconsistent: `plane`/`weld` make three vertices of a face On with
+    /// vertices on both sides (no convex face does that), 0 puts a vertex 1e-16 off the
+    /// plane on one side and its crossings round onto it. Distances within the weld
+    /// distance of the plane, sorted, split at their largest gaps (by ratio, up to
+    /// three): vertices below the gap are On, above it on their side. The band follows
+    /// the data; no constant is added.
+    fn cut_in_gaps(&self, plane: &Plane, tol: &Tolerances, new_tag: u32) -> Option<Cut> {
+        let cl = Classifier::new(plane, tol);
+        let band = tol.snap_abs();
+        let mut ds: Vec<f64> = self
+            .faces
+            .iter()
+            .flat_map(|f| f.verts.iter().map(|v| cl.dist(v).abs()))
+            .filter(|d| *d <= band)
+            .collect();
+        ds.sort_by(f64::total_cmp);
+        ds.dedup();
+        // Candidate bands: the geometric middle of each gap (half the first distance when
+        // the lower end is 0), largest ratio first.
+        let mut gaps: Vec<(f64, f64)> = ds
+            .windows(2)
+            .map(|w| {
+                if w[0] > 0.0 {
+                    (w[1] / w[0], (w[0] * w[1]).sqrt())
+                } else {
+                    (f64::INFINITY, w[1] * 0.5)
+                }
+            })
+            .filter(|(r, e)| *r > 2.0 && *e > 0.0)
+            .collect();
+        gaps.sort_by(|a, b| b.0.total_cmp(&a.0));
+        for &(_, eps) in gaps.iter().take(3) {
+            if let (c, false) = self.cut_within(&Classifier::with_eps(plane, eps), plane, tol, new_tag) {
+                return Some(c);
+            }
+        }
+        None
+    }
+
+    /// [`cut`](Self::cut) with one On distance and no fallback: a cell cut together with
+    /// a neighbour must classify their shared vertices as the neighbour's cut did (its
+    /// [`PolyhedronSplit::on_dist`]), so that the crossings on shared edges are the same
+    /// bits (`crossing` is canonical per edge).
+    pub fn cut_with_eps(&self, plane: &Plane, tol: &Tolerances, new_tag: u32, on_dist: f64) -> Cut {
+        self.cut_within(&Classifier::with_eps(plane, on_dist), plane, tol, new_tag)
+            .0
     }
 
     /// [`cut`](Self::cut) with one classifier; the flag is true when the cut was refused
