@@ -871,3 +871,188 @@ fn every_window_is_conservative_on_a_multistorey_building() {
     }
     assert!(traversed > 0.0, "no portal passed: nothing to compare");
 }
+
+/// Walkthrough frame counts derived by hand (issue 12, "walkthrough counts of a scene where
+/// the answer can be computed by hand"). Scene: `row_of_rooms(2)` = room A `[0,4]×[0,4]×[0,3]`,
+/// a corridor `[4,5]×[1.5,2.5]×[0,2]`, room B `[5,9]×[0,4]×[0,3]`, doors `y ∈ [1.5,2.5]`,
+/// `z ∈ [0,2]` at x = 4 and x = 5. Model: 20 quads (2 triangles each, 40 in all): A has
+/// floor, ceiling, walls y = 0, y = 4, x = 0 and its x = 4 wall in 3 pieces (beside the door
+/// ×2, lintel) = 8; the corridor floor, ceiling and 2 side walls = 4; B the same 8 as A, its
+/// door wall at x = 5. Partitioned into 3 cells A, corridor, B (asserted: the only portals
+/// are the two doors). A quad's two fan triangles share a diagonal; both diagonals of a
+/// rectangle pass through its centre, so a region of a rectangle that contains its centre
+/// in its interior, or that spans it across both diagonals, meets both triangles whatever
+/// the fan (the counts below do not depend on how cleaning rotates the vertices).
+#[test]
+fn walkthrough_frame_counts_by_hand_on_two_rooms() {
+    use portalfind::visibility::walk::{self, Camera, ExactWindow, RectWindow, Scene, Window};
+    let (m, cx) = build(&row_of_rooms(2));
+    assert_eq!(m.polygons.len(), 20);
+    assert!(m.polygons.iter().all(|p| p.verts.len() == 4), "all quads");
+    let part = decimated(&cx, 3);
+    assert_eq!(part.len(), 3);
+    let v = PartitionVisibility::compute(&m, &cx, &part, &PvsSettings::default());
+    let pieces = sample::pieces_of_partition(&part);
+    let scene = Scene {
+        model: &m,
+        cx: &cx,
+        graph: &v.graph,
+        polygons: &v.polygons,
+        pieces: &pieces,
+    };
+    let cell_of = |p: [f64; 3]| -> u32 {
+        part.cells
+            .iter()
+            .position(|c| c.pieces.iter().any(|q| cx.cells[q.idx()].poly.contains(&p, &cx.tol)))
+            .expect("a cell holds the point") as u32
+    };
+    let (ca, cc, cb) = (
+        cell_of([2.0, 2.0, 1.5]),
+        cell_of([4.5, 2.0, 1.0]),
+        cell_of([7.0, 2.0, 1.5]),
+    );
+    assert!(ca != cc && cc != cb && ca != cb, "cells {ca} {cc} {cb}");
+    // The partition is A | corridor | B: two portals, each exactly a 1 × 2 door.
+    assert_eq!(v.graph.cells, 3);
+    assert_eq!(v.graph.portals.len(), 2);
+    for p in &v.graph.portals {
+        let mut pc = p.cells;
+        pc.sort_unstable();
+        let mut ac = [ca, cc];
+        ac.sort_unstable();
+        let x = if pc == ac { 4.0 } else { 5.0 };
+        let mut area = 0.0;
+        for q in &p.pieces {
+            for w in q {
+                assert!(
+                    (w[0] - x).abs() < 1e-9 && (1.5 - 1e-9..=2.5 + 1e-9).contains(&w[1]),
+                    "{q:?}"
+                );
+                assert!((-1e-9..=2.0 + 1e-9).contains(&w[2]), "{q:?}");
+            }
+            // Area in the (y, z) plane (shoelace).
+            let s: f64 = (0..q.len())
+                .map(|i| {
+                    let j = (i + 1) % q.len();
+                    q[i][1] * q[j][2] - q[j][1] * q[i][2]
+                })
+                .sum();
+            area += 0.5 * s.abs();
+        }
+        assert!((area - 2.0).abs() < 1e-9, "door area {area}");
+    }
+    // Polygon i's triangles are 2i and 2i + 1 (all quads). Which cell it faces: A's have
+    // centroid x ≤ 4 (its door wall faces −x into A), the corridor's x = 4.5, B's x ≥ 5.
+    let centroid = |i: usize| -> [f64; 3] {
+        let vs = &m.polygons[i].verts;
+        let mut c = [0.0; 3];
+        for w in vs {
+            for k in 0..3 {
+                c[k] += m.vertices[w.idx()][k] / vs.len() as f64;
+            }
+        }
+        c
+    };
+    let region = |i: usize| -> usize {
+        match centroid(i)[0] {
+            x if x < 4.25 => 0,
+            x if x < 4.75 => 1,
+            _ => 2,
+        }
+    };
+    for (r, cell) in [ca, cc, cb].into_iter().enumerate() {
+        let mine: Vec<u32> = (0..20).filter(|&i| region(i) == r).map(|i| i as u32).collect();
+        assert_eq!(v.polygons.polygons[cell as usize], mine, "polygons of region {r}");
+    }
+    // Triangles drawn per region [A, corridor, B].
+    let per_region = |d: &[bool]| -> [usize; 3] {
+        assert_eq!(d.len(), 40);
+        let mut n = [0; 3];
+        for (t, &on) in d.iter().enumerate() {
+            n[region(t / 2)] += on as usize;
+        }
+        n
+    };
+    // View-frustum culling only, as the walkthrough does it (every model triangle tested
+    // against the view frustum, clipped, no cells).
+    let frustum_only = |cam: &Camera| -> Vec<bool> {
+        let w = RectWindow::view(cam);
+        let mut ops = walk::Ops::default();
+        (0..40)
+            .map(|t| {
+                let vs = &m.polygons[t / 2].verts;
+                let p = |k: usize| m.vertices[vs[k].idx()];
+                let tri = [p(0), p(1 + t % 2), p(2 + t % 2)];
+                w.sees(cam, &tri, &mut ops)
+            })
+            .collect()
+    };
+    let eye = [1.0, 2.0, 1.5];
+
+    // (1) From (1, 2, 1.5) looking −x, 20° field of view (tan 10° = 0.176), aspect 0.75:
+    // the frustum meets x = 0 (depth 1) in y ∈ 2 ± 0.176, z ∈ 1.5 ± 0.132, the centre
+    // (0, 2, 1.5) of A's west wall, and nothing else (floor, ceiling and side walls are
+    // more than 1.3 away from the axis within depth 1): both its triangles, 2. Portal culling:
+    // A's polygons in the frustum, the same 2; the door at x = 4 lies behind the eye. So
+    // frustum 2, portal 2 (exact and rectangle), and all of them in A.
+    let cam = Camera::looking(eye, [-1.0, 0.0, 0.0], 2, 20.0, 0.75, 0.01);
+    let f = frustum_only(&cam);
+    let e = walk::drawn::<ExactWindow>(&scene, &cam, ca);
+    let r = walk::drawn::<RectWindow>(&scene, &cam, ca);
+    assert_eq!(per_region(&f), [2, 0, 0], "away, frustum");
+    assert_eq!(per_region(&e), [2, 0, 0], "away, exact");
+    assert_eq!(per_region(&r), [2, 0, 0], "away, rect");
+    for t in 0..40 {
+        let west = centroid(t / 2)[0] < 1e-9;
+        assert_eq!(e[t], west, "away: triangle {t}");
+    }
+
+    // (2) From (1, 2, 1.5) looking +x through both doors, 90° (tan_x = 1, tan_y = 0.75): the
+    // frustum is |y − 2| ≤ x − 1, |z − 1.5| ≤ 0.75 (x − 1), x > 1.
+    // Frustum only: A's west wall (x = 0) is behind the eye: 0. A's floor (z = 0) is met
+    // where 1.5 ≤ 0.75 (x − 1), x ≥ 3, over all y (|y − 2| ≤ 2 ≤ x − 1): the strip
+    // x ∈ [3, 4] × y ∈ [0, 4] crosses both diagonals: 2; the ceiling likewise (x ≥ 3): 2;
+    // each side wall (|y − 2| = 2 ≤ x − 1, x ≥ 3, all z): strip x ∈ [3, 4] × z ∈ [0, 3]: 2
+    // each; the door wall at x = 4 (depth 3: y ∈ [−1, 5], z ∈ [−0.75, 3.75]) wholly: 3 × 2.
+    // A: 2 + 2 + 2 + 2 + 6 = 14. At x = 4 the cross-section already holds the corridor's
+    // and B's whole cross-sections ([0,4] × [0,3]) and it widens: the corridor 4 × 2 = 8, B
+    // 8 × 2 = 16 (no occlusion culling). Frustum 14 + 8 + 16 = 38 = 40 − A's west wall.
+    // Portal culling (exact window): A drawn with the frustum: 14. The door x = 4 lies inside
+    // the frustum, so the window is the pyramid from the eye through it:
+    // |y − 2| ≤ (x − 1)/6, z ∈ [1.5 − (x − 1)/2, 1.5 + (x − 1)/6]. Over the corridor
+    // (x ∈ [4, 5]) it contains y ∈ [1.5, 2.5] × z ∈ [0, 2] for x > 4, so the corridor's
+    // floor, ceiling and both walls are met over their whole width beyond x = 4: 8. At
+    // x = 5 the window is y ∈ [1.33, 2.67], z ∈ [−0.5, 2.17] ⊇ the door x = 5, so the window
+    // into B is the pyramid through that door: |y − 2| ≤ (x − 1)/8,
+    // z ∈ [1.5 − 3 (x − 1)/8, 1.5 + (x − 1)/8]. In B (x ∈ [5, 9]): the east wall x = 9 in
+    // y ∈ [1, 3] × z ∈ [0, 2.5], around its centre (9, 2, 1.5): 2; the floor, since
+    // 1.5 − 3 (x − 1)/8 ≤ 0 for x ≥ 5, in the trapezoid x ∈ [5, 9], |y − 2| ≤ (x − 1)/8,
+    // which holds (6, 2) and (8.5, 2) on opposite sides of either diagonal (y = x − 5,
+    // y = 9 − x): 2; the ceiling (z = 3 > 1.5 + 1 = 2.5) and side walls (|y − 2| = 2 > 1): 0;
+    // the door wall x = 5 only touches the window along the door's edges: 0. B: 4.
+    // Portal 14 + 8 + 4 = 26. The screen rectangle of an axis-aligned door on a level camera
+    // is its exact image, so the rectangle window sees the same region, but it counts what
+    // only touches it (conservative): at least 26, at most the frustum's 38.
+    let cam = Camera::looking(eye, [1.0, 0.0, 0.0], 2, 90.0, 0.75, 0.01);
+    let f = frustum_only(&cam);
+    let e = walk::drawn::<ExactWindow>(&scene, &cam, ca);
+    let r = walk::drawn::<RectWindow>(&scene, &cam, ca);
+    assert_eq!(per_region(&f), [14, 8, 16], "through, frustum");
+    assert_eq!(f.iter().filter(|&&x| x).count(), 38);
+    assert_eq!(per_region(&e), [14, 8, 4], "through, exact");
+    assert_eq!(e.iter().filter(|&&x| x).count(), 26);
+    for t in 0..40 {
+        let c = centroid(t / 2);
+        let in_b = region(t / 2) == 2;
+        let b_seen = c[0] > 9.0 - 1e-9 || (c[0] > 5.0 + 1e-9 && c[2] < 1e-9);
+        if in_b {
+            assert_eq!(e[t], b_seen, "through: B's triangle {t} (centroid {c:?})");
+        }
+        assert!(!e[t] || f[t], "through: exact draws triangle {t} the frustum culls");
+        assert!(!e[t] || r[t], "through: rect culls triangle {t} the exact window draws");
+        assert!(!r[t] || f[t], "through: rect draws triangle {t} the frustum culls");
+    }
+    let nr = r.iter().filter(|&&x| x).count();
+    assert!((26..=38).contains(&nr), "rect {nr}");
+    eprintln!("through the doors: frustum 38, exact 26, rect {nr}");
+}
