@@ -113,6 +113,17 @@ impl Sealer {
         Sealer::with_split(model, size, false)
     }
 
+    /// The width of a hull opening of a cell: over its open `pieces` ([`Self::width`]), or,
+    /// when the opening has no pieces (a flat cell's face on the hull), twice the clearance
+    /// at its point `q`.
+    fn hull_width(&self, pieces: &[ConvexPolygon], q: &[f64; 3]) -> (f64, [f64; 3]) {
+        if pieces.is_empty() {
+            (2.0 * self.field.distance(*q), *q)
+        } else {
+            self.width(pieces)
+        }
+    }
+
     /// Twice the largest sampled clearance over `pieces`, and where; stops early once the
     /// opening is known to be at least the sealing size wide.
     fn width(&self, pieces: &[ConvexPolygon]) -> (f64, [f64; 3]) {
@@ -184,11 +195,7 @@ impl Sealer {
             let Some((pieces, q)) = hull_open.get(&c) else {
                 continue;
             };
-            let (w, p) = if pieces.is_empty() {
-                (2.0 * self.field.distance(*q), *q)
-            } else {
-                self.width(pieces)
-            };
+            let (w, p) = self.hull_width(pieces, q);
             if w >= self.size {
                 if outside.insert(c) {
                     queue.push_back(c);
@@ -337,11 +344,7 @@ impl Sealer {
                 let Some((pieces, q)) = hull_open.get(&c) else {
                     continue;
                 };
-                let (w, p) = if pieces.is_empty() {
-                    (2.0 * self.field.distance(*q), *q)
-                } else {
-                    self.width(pieces)
-                };
+                let (w, p) = self.hull_width(pieces, q);
                 if w >= self.size {
                     return None;
                 }

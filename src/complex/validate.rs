@@ -220,24 +220,12 @@ impl CellComplex {
         let (cells, rel) = self.check_cells()?;
         v.cells = cells;
         v.volume_rel_error = rel;
+        self.check_patch_cells()?;
         for (pi, p) in self.patches.iter().enumerate() {
             if !p.alive {
                 continue;
             }
             v.patches += 1;
-            for &c in &p.cells {
-                if c == HULL {
-                    continue;
-                }
-                let cell = &self.cells[c.idx()];
-                if !cell.alive || !cell.poly.tags.contains(&(pi as u32)) {
-                    return Err(ComplexError::Topology {
-                        cell: c.0,
-                        patch: pi as u32,
-                        why: "cell does not hold the patch",
-                    });
-                }
-            }
             let area = p.polygon.area();
             let (pieces, _, slivers) = self.open_pieces(PatchId(pi as u32));
             let open: f64 = pieces.iter().map(|q| q.area()).sum();
