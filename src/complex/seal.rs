@@ -495,6 +495,13 @@ impl CellComplex {
         if self.leaks.is_empty() {
             return Vec::new();
         }
+        let sealer = Sealer::with_split(model, self.tol.sliver_width(), true);
+        self.reseal(sealer, "sealing cracks (auto)")
+    }
+
+    /// Stage 6 again from a clean graph with `sealer` closing the openings it judges
+    /// narrow; counts and times the sealed openings under `stage`.
+    fn reseal(&mut self, mut sealer: Sealer, stage: &str) -> Vec<SealedOpening> {
         let t0 = Instant::now();
         for c in &mut self.cells {
             c.exterior = false;
@@ -502,12 +509,9 @@ impl CellComplex {
         self.build_graph();
         self.stats.exterior_regions = 0;
         self.stats.interior_regions = 0;
-        let mut sealer = Sealer::with_split(model, self.tol.sliver_width(), true);
         let sealed = self.remove_exterior_with(Some(&mut sealer));
         self.stats.openings_sealed = sealed.len();
-        self.stats
-            .timings
-            .push(("sealing cracks (auto)".into(), t0.elapsed().as_secs_f64()));
+        self.stats.timings.push((stage.into(), t0.elapsed().as_secs_f64()));
         sealed
     }
 
@@ -520,19 +524,6 @@ impl CellComplex {
         if self.leaks.is_empty() || size.is_nan() || size <= 0.0 {
             return Vec::new();
         }
-        let t0 = Instant::now();
-        for c in &mut self.cells {
-            c.exterior = false;
-        }
-        self.build_graph();
-        self.stats.exterior_regions = 0;
-        self.stats.interior_regions = 0;
-        let mut sealer = Sealer::new(model, size);
-        let sealed = self.remove_exterior_with(Some(&mut sealer));
-        self.stats.openings_sealed = sealed.len();
-        self.stats
-            .timings
-            .push(("sealing holes".into(), t0.elapsed().as_secs_f64()));
-        sealed
+        self.reseal(Sealer::new(model, size), "sealing holes")
     }
 }
