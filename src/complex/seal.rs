@@ -161,6 +161,18 @@ impl Sealer {
         best
     }
 
+    /// The sealed-opening record of portal `k` between kept cell `inside` and `outside`.
+    fn portal_raw(&mut self, cx: &CellComplex, k: usize, inside: CellId, outside: CellId) -> Raw {
+        let (width, point) = self.portal_width(cx, k);
+        Raw {
+            width,
+            point,
+            area: cx.portals[k].area,
+            inside,
+            outside,
+        }
+    }
+
     fn portal_width(&mut self, cx: &CellComplex, k: usize) -> (f64, [f64; 3]) {
         if let Some(&w) = self.widths.get(&k) {
             return w;
@@ -263,14 +275,7 @@ impl Sealer {
                 }
                 for &(m, k) in &adj[c.idx()] {
                     if outside.contains(&m) {
-                        let (width, point) = self.portal_width(cx, k);
-                        raw.push(Raw {
-                            width,
-                            point,
-                            area: cx.portals[k].area,
-                            inside: c,
-                            outside: m,
-                        });
+                        raw.push(self.portal_raw(cx, k, c, m));
                     }
                 }
             }
@@ -387,14 +392,7 @@ impl Sealer {
                             sub.push(m);
                         }
                     } else {
-                        let (width, point) = self.portal_width(cx, k);
-                        raw.push(Raw {
-                            width,
-                            point,
-                            area: cx.portals[k].area,
-                            inside: c,
-                            outside: m,
-                        });
+                        raw.push(self.portal_raw(cx, k, c, m));
                     }
                 }
             }

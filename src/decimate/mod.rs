@@ -1126,14 +1126,20 @@ impl Decimation {
     }
 }
 
+/// Test helper: the cell complex of the shipped thesis model `name` (`models/thesis/`).
+#[cfg(test)]
+pub(crate) fn thesis_complex(name: &str) -> CellComplex {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("models/thesis/{name}.obj"));
+    let m = crate::model::load_model(&path).expect("thesis model");
+    crate::pipeline::complex_of_unchecked(&m).expect("complex")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     fn thesis(name: &str) -> CellComplex {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("models/thesis/{name}.obj"));
-        let m = crate::model::load_model(&path).expect("thesis model");
-        crate::pipeline::complex_of_unchecked(&m).expect("complex")
+        thesis_complex(name)
     }
 
     fn soup(name: &str, s: crate::generate::scenes::Soup) -> CellComplex {

@@ -388,9 +388,7 @@ mod tests {
     use crate::decimate::{Decimation, Estimator, HeuristicKind, Settings, StopRule};
 
     fn thesis(name: &str) -> CellComplex {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("models/thesis/{name}.obj"));
-        let m = crate::model::load_model(&path).expect("thesis model");
-        crate::pipeline::complex_of_unchecked(&m).expect("complex")
+        crate::decimate::thesis_complex(name)
     }
 
     fn run(cx: &CellComplex, h: HeuristicKind, stop: StopRule, reference: bool) -> Decimation {
