@@ -167,6 +167,26 @@ fn decimated(cx: &CellComplex, cells: usize) -> Partition {
 
 /// PVS never smaller than the sampled visible set: zero false invisibles, on the complex's
 /// cells and on a decimated partition, for every test model.
+/// Samples rays in a decimated partition and checks them against its PVS.
+fn sample_partition(
+    m: &Model,
+    cx: &CellComplex,
+    part: &Partition,
+    v: &PartitionVisibility,
+    ss: &SampleSettings,
+) -> sample::SampleReport {
+    sample::check(
+        m,
+        cx,
+        &sample::pieces_of_partition(part),
+        &v.pvs,
+        &v.polygons,
+        &v.cells,
+        ss,
+    )
+    .0
+}
+
 #[test]
 fn pvs_is_conservative_by_sampling() {
     let mut models: Vec<(String, Soup)> = vec![
@@ -215,15 +235,7 @@ fn pvs_is_conservative_by_sampling() {
         // A decimated partition.
         let part = decimated(&cx, (g.cells / 8).max(2));
         let v = PartitionVisibility::compute(&m, &cx, &part, &PvsSettings::default());
-        let (srep, _) = sample::check(
-            &m,
-            &cx,
-            &sample::pieces_of_partition(&part),
-            &v.pvs,
-            &v.polygons,
-            &v.cells,
-            &ss,
-        );
+        let srep = sample_partition(&m, &cx, &part, &v, &ss);
         eprintln!(
             "{name} (decimated): {} cells, PVS mean {:.1}, E_T {:.0}, rays {}, false {}",
             v.report.cells, v.report.pvs_mean_cells, v.report.expected_triangles, srep.rays, srep.false_invisible
@@ -365,15 +377,7 @@ fn e1m1_measurements() {
             points_per_cell: 64,
             rays_per_point: 64,
         };
-        let (s, _) = sample::check(
-            &model,
-            &cx,
-            &sample::pieces_of_partition(&part),
-            &v.pvs,
-            &v.polygons,
-            &v.cells,
-            &ss,
-        );
+        let s = sample_partition(&model, &cx, &part, &v, &ss);
         println!(
             "  sampling: {} rays from {} points, false invisible {}, back hits {}, escaped {}, overestimation \
              mean {:.2} median {:.2} max {:.2}, sampled E_T {:.0}, {:.1} s; examples {:?}",
@@ -490,13 +494,11 @@ fn no_reentry_on(models: &[&str]) {
             );
             tighter += (new.pvs.sets[c] != old.pvs.sets[c]) as usize;
         }
-        let (srep, _) = sample::check(
+        let srep = sample_partition(
             &m,
             &cx,
-            &sample::pieces_of_partition(&part),
-            &new.pvs,
-            &new.polygons,
-            &new.cells,
+            &part,
+            &new,
             &SampleSettings {
                 seed: 3,
                 points_per_cell: 8,
