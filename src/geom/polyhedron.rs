@@ -667,8 +667,7 @@ impl ConvexPolyhedron {
         for (fi, f) in self.faces.iter().enumerate() {
             let Some(fp) = FacePlane::new(f, tol) else { continue };
             for p in &verts {
-                let (d, slack) = fp.test(p, tol);
-                if d > slack {
+                if let Some((d, slack)) = fp.violation(p, tol) {
                     return Err(format!("vertex {p:?} is {d:e} (> {slack:e}) in front of face {fi}"));
                 }
             }
