@@ -204,6 +204,30 @@ pub struct ComplexStats {
     pub openings_sealed: usize,
     /// Stage timings in seconds, in order.
     pub timings: Vec<(String, f64)>,
+    /// The process's peak resident memory (MiB, Linux `VmHWM`) at the end of each stage of
+    /// [`CellComplex::build`], named like `timings` (empty where it cannot be read). Not
+    /// serialized: like timings, a property of the machine and the process.
+    #[serde(skip)]
+    pub memory: Vec<(String, f64)>,
+}
+
+/// The process's peak resident memory so far in MiB (Linux `VmHWM` of
+/// `/proc/self/status`; `None` elsewhere).
+pub(crate) fn peak_rss_mib() -> Option<f64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib / 1024.0)
+}
+
+impl ComplexStats {
+    /// Records a finished stage: its seconds in `timings`, the peak memory in `memory`.
+    pub(crate) fn stage(&mut self, name: &str, secs: f64) {
+        self.timings.push((name.to_string(), secs));
+        if let Some(m) = peak_rss_mib() {
+            self.memory.push((name.to_string(), m));
+        }
+    }
 }
 
 /// The cell complex with its portal graph.
