@@ -93,6 +93,10 @@ impl CellComplex {
         let t4 = Instant::now();
         cx.remove_exterior();
         cx.stats.stage("exterior removal", t4.elapsed().as_secs_f64());
+
+        let t5 = Instant::now();
+        cx.shrink_storage();
+        cx.stats.stage("compact storage", t5.elapsed().as_secs_f64());
         cx
     }
 

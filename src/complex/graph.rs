@@ -140,10 +140,12 @@ impl CellComplex {
             } else {
                 ((b, a), pieces.iter().map(|p| p.reversed()).collect())
             };
+            let np = pieces.len();
             let k = *by_pair.entry(key).or_insert_with(|| {
                 portals.push(Portal {
                     cells: [key.0, key.1],
-                    pieces: Vec::new(),
+                    // Most pairs meet over one patch: no growth slack (see `shrink_storage`).
+                    pieces: Vec::with_capacity(np),
                     area: 0.0,
                 });
                 portals.len() - 1

@@ -341,6 +341,38 @@ impl CellComplex {
         (cells, patches)
     }
 
+    /// Drops the growth slack of the build's vectors (a `Vec` pushed once holds room for
+    /// four): occluders and their polygons, patch polygons, alive cells' faces and tags,
+    /// portal and crack pieces. Contents, ids and order are unchanged. The build calls it
+    /// last, so the checks and the decimation run on the smaller heap.
+    pub(crate) fn shrink_storage(&mut self) {
+        use rayon::prelude::*;
+        fn poly(p: &mut ConvexPolygon) {
+            p.verts.shrink_to_fit();
+        }
+        self.patches.par_iter_mut().with_min_len(1024).for_each(|p| {
+            if p.alive {
+                poly(&mut p.polygon);
+            }
+            p.occluders.shrink_to_fit();
+            p.occluders.iter_mut().for_each(|o| poly(&mut o.polygon));
+        });
+        self.cells.par_iter_mut().with_min_len(1024).for_each(|c| {
+            if c.alive {
+                c.poly.faces.shrink_to_fit();
+                c.poly.tags.shrink_to_fit();
+                c.poly.faces.iter_mut().for_each(poly);
+            }
+        });
+        for list in [&mut self.portals, &mut self.cracks] {
+            list.par_iter_mut().with_min_len(1024).for_each(|p| {
+                p.pieces.shrink_to_fit();
+                p.pieces.iter_mut().for_each(poly);
+            });
+            list.shrink_to_fit();
+        }
+    }
+
     /// Alive cells (not split), including exterior ones.
     pub fn alive_cells(&self) -> impl Iterator<Item = (CellId, &Cell)> {
         self.cells
