@@ -699,10 +699,13 @@ impl ConvexPolyhedron {
     /// `a`, both dot products) — so a vertex within `snap_abs − 16 ε (D + M)` by the
     /// cheap distance is within `snap_abs`, the smallest allowance `test` grants.
     fn check_small(&self, tol: &Tolerances) -> Result<(), String> {
-        let mut keys: Vec<Key> = Vec::with_capacity(SMALL_OCCURRENCES);
-        let mut verts: Vec<P3> = Vec::with_capacity(SMALL_OCCURRENCES);
+        // On the stack: no allocation per cell.
+        let mut keys = [[0u64; 3]; SMALL_OCCURRENCES];
+        let mut verts = [[0.0f64; 3]; SMALL_OCCURRENCES];
+        let mut nv = 0;
         // Vertex number of every occurrence, face after face.
-        let mut idx: Vec<u8> = Vec::with_capacity(SMALL_OCCURRENCES);
+        let mut idx = [0u8; SMALL_OCCURRENCES];
+        let mut ni = 0;
         for (fi, f) in self.faces.iter().enumerate() {
             let n = f.verts.len();
             if n < 3 {
@@ -715,29 +718,34 @@ impl ConvexPolyhedron {
             }
             for v in &f.verts {
                 let kv = key(v);
-                let i = match keys.iter().position(|x| *x == kv) {
+                let i = match keys[..nv].iter().position(|x| *x == kv) {
                     Some(i) => i,
                     None => {
-                        keys.push(kv);
-                        verts.push(*v);
-                        keys.len() - 1
+                        keys[nv] = kv;
+                        verts[nv] = *v;
+                        nv += 1;
+                        nv - 1
                     }
                 };
-                idx.push(i as u8);
+                idx[ni] = i as u8;
+                ni += 1;
             }
         }
+        let (keys, verts, idx) = (&keys[..nv], &verts[..nv], &idx[..ni]);
         // Directed edges as `from · 128 + to` (at most 96 vertices), sorted.
         let code = |a: u8, b: u8| (a as u16) << 7 | b as u16;
-        let mut edges: Vec<u16> = Vec::with_capacity(idx.len());
+        let mut edge_buf = [0u16; SMALL_OCCURRENCES];
         let mut at = 0;
         for f in &self.faces {
             let n = f.verts.len();
             for k in 0..n {
-                edges.push(code(idx[at + k], idx[at + (k + 1) % n]));
+                edge_buf[at + k] = code(idx[at + k], idx[at + (k + 1) % n]);
             }
             at += n;
         }
+        let edges = &mut edge_buf[..ni];
         edges.sort_unstable();
+        let edges = &*edges;
         let count = |e: u16| {
             let lo = edges.partition_point(|x| *x < e);
             edges[lo..].iter().take_while(|x| **x == e).count()
@@ -763,7 +771,7 @@ impl ConvexPolyhedron {
             return Err(format!("volume {vol}"));
         }
         let (mut lo, mut hi, mut m) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3], 0.0f64);
-        for v in &verts {
+        for v in verts {
             for k in 0..3 {
                 lo[k] = lo[k].min(v[k]);
                 hi[k] = hi[k].max(v[k]);
@@ -782,7 +790,7 @@ impl ConvexPolyhedron {
                 }
             }
             let Some(fp) = FacePlane::new(f, tol) else { continue };
-            for p in &verts {
+            for p in verts {
                 if let Some((d, slack)) = fp.violation(p, tol) {
                     return Err(format!("vertex {p:?} is {d:e} (> {slack:e}) in front of face {fi}"));
                 }
