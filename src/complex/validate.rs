@@ -352,7 +352,7 @@ impl CellComplex {
         // by the rounding of a normalized plane's length (a factor 2 is ample); the
         // classification is kept for tolerances where it does not.
         let classify = thick <= 2.0 * tol.plane_abs();
-        let cell_check = |cand: &mut Vec<u32>, ci: usize| -> Option<ComplexError> {
+        let cell_check = |(cand, tested): &mut (Vec<u32>, Vec<(Plane, bool)>), ci: usize| -> Option<ComplexError> {
             let c = &self.cells[ci];
             // Flat cells have no interior to cross.
             if !c.alive || c.flat {
@@ -375,19 +375,28 @@ impl CellComplex {
             // Once per cell, not per candidate polygon.
             let verts = c.poly.vertices();
             let mut face_planes: Option<Vec<Plane>> = None;
+            // The plane test per distinct plane (polygons on one support plane share it).
+            tested.clear();
             for &pi in cand.iter() {
                 let poly = &polys[pi as usize];
                 let plane = planes[pi as usize];
-                let (mut front, mut back) = (0.0f64, 0.0f64);
-                for v in &verts {
-                    let d = plane.eval(v);
-                    front = front.max(d);
-                    back = back.max(-d);
-                }
-                if front <= thick
-                    || back <= thick
-                    || (classify && c.poly.classify(&plane, tol) != Classification::Straddles)
-                {
+                let deep = match tested.iter().find(|(p, _)| *p == plane) {
+                    Some(&(_, deep)) => deep,
+                    None => {
+                        let (mut front, mut back) = (0.0f64, 0.0f64);
+                        for v in &verts {
+                            let d = plane.eval(v);
+                            front = front.max(d);
+                            back = back.max(-d);
+                        }
+                        let deep = front > thick
+                            && back > thick
+                            && !(classify && c.poly.classify(&plane, tol) != Classification::Straddles);
+                        tested.push((plane, deep));
+                        deep
+                    }
+                };
+                if !deep {
                     continue;
                 }
                 let face_planes = face_planes.get_or_insert_with(|| c.poly.planes());
@@ -435,7 +444,7 @@ impl CellComplex {
         let first = (0..self.cells.len())
             .into_par_iter()
             .with_min_len(256)
-            .map_init(Vec::new, cell_check)
+            .map_init(Default::default, cell_check)
             .find_map_first(|e| e);
         match first {
             Some(e) => Err(e),

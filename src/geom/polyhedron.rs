@@ -626,8 +626,12 @@ impl ConvexPolyhedron {
             return Err(format!("only {} faces", self.faces.len()));
         }
         let occurrences: usize = self.faces.iter().map(|f| f.verts.len()).sum();
+        // Arrays sized to the cell (tetrahedra: 12 occurrences), so zeroing them is cheap.
+        if occurrences <= 16 {
+            return self.check_small::<16>(tol);
+        }
         if occurrences <= SMALL_OCCURRENCES {
-            return self.check_small(tol);
+            return self.check_small::<SMALL_OCCURRENCES>(tol);
         }
         self.check_general(tol)
     }
@@ -698,13 +702,13 @@ impl ConvexPolyhedron {
     /// largest coordinate (normalisation, the centroid's offset from the plane through
     /// `a`, both dot products) — so a vertex within `snap_abs − 16 ε (D + M)` by the
     /// cheap distance is within `snap_abs`, the smallest allowance `test` grants.
-    fn check_small(&self, tol: &Tolerances) -> Result<(), String> {
+    fn check_small<const N: usize>(&self, tol: &Tolerances) -> Result<(), String> {
         // On the stack: no allocation per cell.
-        let mut keys = [[0u64; 3]; SMALL_OCCURRENCES];
-        let mut verts = [[0.0f64; 3]; SMALL_OCCURRENCES];
+        let mut keys = [[0u64; 3]; N];
+        let mut verts = [[0.0f64; 3]; N];
         let mut nv = 0;
         // Vertex number of every occurrence, face after face.
-        let mut idx = [0u8; SMALL_OCCURRENCES];
+        let mut idx = [0u8; N];
         let mut ni = 0;
         for (fi, f) in self.faces.iter().enumerate() {
             let n = f.verts.len();
@@ -734,7 +738,7 @@ impl ConvexPolyhedron {
         let (keys, verts, idx) = (&keys[..nv], &verts[..nv], &idx[..ni]);
         // Directed edges as `from · 128 + to` (at most 96 vertices), sorted.
         let code = |a: u8, b: u8| (a as u16) << 7 | b as u16;
-        let mut edge_buf = [0u16; SMALL_OCCURRENCES];
+        let mut edge_buf = [0u16; N];
         let mut at = 0;
         for f in &self.faces {
             let n = f.verts.len();
@@ -998,8 +1002,11 @@ mod tests {
                 if v.faces.len() < 4 || occ > SMALL_OCCURRENCES {
                     continue;
                 }
-                let (small, general) = (v.check_small(&tol), v.check_general(&tol));
+                let (small, general) = (v.check_small::<SMALL_OCCURRENCES>(&tol), v.check_general(&tol));
                 assert_eq!(small, general, "round {round}");
+                if occ <= 16 {
+                    assert_eq!(v.check_small::<16>(&tol), general, "round {round}");
+                }
                 checked += 1;
                 if let Err(e) = small {
                     errors += 1;
