@@ -749,14 +749,11 @@ fn run(cli: Cli) -> Result<()> {
                 let exe = std::env::current_exe()?;
                 let work = std::env::temp_dir().join(format!("portalfind-scale-{}", std::process::id()));
                 let opts = portalfind::suite::scale::ScaleOptions { threads, repeat };
-                let rep = portalfind::suite::scale::run_with(
-                    &exe,
-                    (min_triangles, max_triangles),
-                    &opts,
-                    &work,
-                    &mut |l| eprintln!("{l}"),
-                )
-                .context("scale benchmark failed")?;
+                let rep =
+                    portalfind::suite::scale::run_with(&exe, (min_triangles, max_triangles), &opts, &work, &mut |l| {
+                        eprintln!("{l}")
+                    })
+                    .context("scale benchmark failed")?;
                 let _ = std::fs::remove_dir_all(&work);
                 portalfind::suite::scale::write_all(&rep, &out)
                     .with_context(|| format!("cannot write into {}", out.display()))?;

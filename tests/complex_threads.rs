@@ -79,7 +79,11 @@ fn checks_report_the_same_first_error_on_any_thread_count() {
         [x, mid(1, 0.95), mid(2, 0.9)],
         [x, mid(1, 0.05), mid(2, 0.9)],
     ]);
-    let mut ps: Vec<Vec<u32>> = m.polygons.iter().map(|p| p.verts.iter().map(|v| v.0).collect()).collect();
+    let mut ps: Vec<Vec<u32>> = m
+        .polygons
+        .iter()
+        .map(|p| p.verts.iter().map(|v| v.0).collect())
+        .collect();
     ps.push(vec![k, k + 1, k + 2, k + 3]);
     let m2 = from_soup("crossed", vs, ps).unwrap();
     let one = on(1, || cx.check_no_crossing(&m2)).expect_err("a wall through the rooms");
@@ -97,5 +101,8 @@ fn checks_report_the_same_first_error_on_any_thread_count() {
     let one = on(1, || bad.check_valid()).unwrap_err();
     let two = on(2, || bad.check_valid()).unwrap_err();
     assert_eq!(one, two);
-    assert!(one.to_string().contains(&format!("cell {}", alive[alive.len() / 3])), "{one}");
+    assert!(
+        one.to_string().contains(&format!("cell {}", alive[alive.len() / 3])),
+        "{one}"
+    );
 }

@@ -964,8 +964,12 @@ mod tests {
             let tol = Tolerances::for_scale(3f64.sqrt());
             let o = [off, -off, off];
             let at = |x: f64, y: f64, z: f64| [o[0] + x, o[1] + y, o[2] + z];
-            let mut p =
-                ConvexPolyhedron::tetrahedron(&at(0.0, 0.0, 0.0), &at(1.0, 0.0, 0.0), &at(0.0, 1.0, 0.0), &at(0.0, 0.0, 1.0));
+            let mut p = ConvexPolyhedron::tetrahedron(
+                &at(0.0, 0.0, 0.0),
+                &at(1.0, 0.0, 0.0),
+                &at(0.0, 1.0, 0.0),
+                &at(0.0, 0.0, 1.0),
+            );
             for _ in 0..(round % 7) {
                 let n = rng.unit();
                 let c = at(0.25 + 0.1 * rng.f64(), 0.25 + 0.1 * rng.f64(), 0.25 + 0.1 * rng.f64());
@@ -1014,7 +1018,10 @@ mod tests {
                 }
             }
         }
-        assert!(checked > 300 && errors > 100 && convexity > 5, "{checked} {errors} {convexity}");
+        assert!(
+            checked > 300 && errors > 100 && convexity > 5,
+            "{checked} {errors} {convexity}"
+        );
     }
 
     fn rel(a: f64, b: f64) -> f64 {

@@ -236,12 +236,7 @@ fn tetrahedra(run_dir: &Path) -> Option<usize> {
 /// Runs every grid of [`GRIDS`] whose model has `min_triangles..=max_triangles` triangles.
 /// `exe` is the portalfind executable; `work` a scratch directory (models and run
 /// outputs; each size's files are removed after it ran). `log` gets progress lines.
-pub fn run(
-    exe: &Path,
-    sizes: (usize, usize),
-    work: &Path,
-    log: &mut dyn FnMut(&str),
-) -> std::io::Result<ScaleReport> {
+pub fn run(exe: &Path, sizes: (usize, usize), work: &Path, log: &mut dyn FnMut(&str)) -> std::io::Result<ScaleReport> {
     run_with(exe, sizes, &ScaleOptions::default(), work, log)
 }
 
@@ -497,7 +492,10 @@ pub fn table(rep: &ScaleReport) -> String {
 
 /// Thread counts measured over all rows, ascending.
 fn thread_counts(rows: &[ScaleRow]) -> Vec<usize> {
-    let mut t: Vec<usize> = rows.iter().flat_map(|r| r.by_threads.iter().map(|x| x.threads)).collect();
+    let mut t: Vec<usize> = rows
+        .iter()
+        .flat_map(|r| r.by_threads.iter().map(|x| x.threads))
+        .collect();
     t.sort_unstable();
     t.dedup();
     t
@@ -520,7 +518,11 @@ fn thread_median(r: &ScaleRow, threads: usize, name: Option<&str>) -> Option<f64
     }
     v.sort_by(f64::total_cmp);
     let m = v.len() / 2;
-    Some(if v.len() % 2 == 1 { v[m] } else { (v[m - 1] + v[m]) / 2.0 })
+    Some(if v.len() % 2 == 1 {
+        v[m]
+    } else {
+        (v[m - 1] + v[m]) / 2.0
+    })
 }
 
 /// Per-stage seconds side by side per thread count (medians over the repetitions), and the
@@ -532,7 +534,10 @@ pub fn threads_table(rows: &[ScaleRow]) -> String {
         return String::new();
     }
     let mut names: Vec<&String> = Vec::new();
-    for (n, _) in rows.iter().flat_map(|r| r.by_threads.iter().flat_map(|x| x.stages.iter())) {
+    for (n, _) in rows
+        .iter()
+        .flat_map(|r| r.by_threads.iter().flat_map(|x| x.stages.iter()))
+    {
         if !names.contains(&n) {
             names.push(n);
         }
@@ -808,7 +813,10 @@ mod tests {
         let t = threads_table(std::slice::from_ref(&row));
         assert!(t.contains("| stage | 500 @1 | 500 @2 | 500 speedup |"), "{t}");
         assert!(t.contains("| splitting | 3.000 | 1.000 | 3.00 |"), "{t}");
-        assert!(t.contains("| run (wall, spawn to exit) | 4.000 | 2.000 | 2.00 |"), "{t}");
+        assert!(
+            t.contains("| run (wall, spawn to exit) | 4.000 | 2.000 | 2.00 |"),
+            "{t}"
+        );
         let plain = ScaleRow {
             by_threads: Vec::new(),
             ..row
