@@ -508,6 +508,14 @@ enum BenchCmd {
         /// 1M-triangle run alone.
         #[arg(long, default_value_t = 0)]
         min_triangles: usize,
+        /// Rayon thread counts (comma-separated, e.g. 1,2): run each size once per count
+        /// (and per --repeat) in fresh processes with RAYON_NUM_THREADS set, interleaved,
+        /// and add a per-stage table of the counts side by side.
+        #[arg(long, value_delimiter = ',')]
+        threads: Vec<usize>,
+        /// Runs per thread count, interleaved (with --threads; medians are reported).
+        #[arg(long, default_value_t = 1)]
+        repeat: usize,
         /// Output directory.
         #[arg(long, default_value = "results/scale")]
         out: PathBuf,
@@ -734,14 +742,18 @@ fn run(cli: Cli) -> Result<()> {
             BenchCmd::Scale {
                 max_triangles,
                 min_triangles,
+                threads,
+                repeat,
                 out,
             } => {
                 let exe = std::env::current_exe()?;
                 let work = std::env::temp_dir().join(format!("portalfind-scale-{}", std::process::id()));
-                let rep = portalfind::suite::scale::run(&exe, (min_triangles, max_triangles), &work, &mut |l| {
-                    eprintln!("{l}")
-                })
-                .context("scale benchmark failed")?;
+                let opts = portalfind::suite::scale::ScaleOptions { threads, repeat };
+                let rep =
+                    portalfind::suite::scale::run_with(&exe, (min_triangles, max_triangles), &opts, &work, &mut |l| {
+                        eprintln!("{l}")
+                    })
+                    .context("scale benchmark failed")?;
                 let _ = std::fs::remove_dir_all(&work);
                 portalfind::suite::scale::write_all(&rep, &out)
                     .with_context(|| format!("cannot write into {}", out.display()))?;

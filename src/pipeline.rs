@@ -570,6 +570,7 @@ fn run_model_inner(
     stages.extend(cells.cx.stats.timings.iter().cloned());
     stages.append(&mut cells.checks);
     let mut memory = std::mem::take(&mut cells.memory);
+    memory.extend(cells.cx.stats.memory.iter().map(|(n, m)| (format!("complex: {n}"), *m)));
     sample_peak(&mut memory, "cell complex");
     // Checked: the geometry of inactive cells and unused patches is not read again, and
     // the decimation's memory reuses it.

@@ -8,6 +8,7 @@ use crate::geom::{
 use crate::ids::{CellId, PolygonId, TetId, VertexId};
 use crate::model::Model;
 use crate::predicates::orient3d;
+use rayon::prelude::*;
 use std::collections::{HashMap, HashSet, VecDeque};
 use std::time::Instant;
 
@@ -27,9 +28,7 @@ impl CellComplex {
         let t0 = Instant::now();
         let mut cx = CellComplex::from_tets(model, tet);
         cx.stats.polygons = model.polygons.len();
-        cx.stats
-            .timings
-            .push(("cells from tetrahedra".into(), t0.elapsed().as_secs_f64()));
+        cx.stats.stage("cells from tetrahedra", t0.elapsed().as_secs_f64());
 
         let t1 = Instant::now();
         // Support planes over all polygons first: a polygon may skip geometry only if it
@@ -49,7 +48,8 @@ impl CellComplex {
             .collect();
         let on_support: Vec<bool> = model
             .polygons
-            .iter()
+            .par_iter()
+            .with_min_len(256)
             .zip(&of)
             .map(|(p, &(s, _))| {
                 let [a, b, c] = supports[s].ids.map(|v| tet.point(v));
@@ -57,9 +57,7 @@ impl CellComplex {
             })
             .collect();
         let pending = cx.attach_conforming(model, tet, &on_support);
-        cx.stats
-            .timings
-            .push(("conforming polygons".into(), t1.elapsed().as_secs_f64()));
+        cx.stats.stage("conforming polygons", t1.elapsed().as_secs_f64());
 
         let t2 = Instant::now();
         let mut placer = Placer::new(tet, cx.cells.len());
@@ -67,9 +65,12 @@ impl CellComplex {
         // geometric order, not their order in the file.
         let mut pending = pending;
         let cycles: Vec<Vec<[f64; 3]>> = (0..model.polygons.len())
+            .into_par_iter()
+            .with_min_len(256)
             .map(|k| canonical_cycle(model, PolygonId(k as u32)))
             .collect();
-        pending.sort_by(|a, b| cmp_cycles(&cycles[a.idx()], &cycles[b.idx()]).then(a.cmp(b)));
+        // A total order (ties by id), so the parallel sort gives the one order.
+        pending.par_sort_by(|a, b| cmp_cycles(&cycles[a.idx()], &cycles[b.idx()]).then(a.cmp(b)));
         for (i, &p) in pending.iter().enumerate() {
             if i % 64 == 0 {
                 progress("splitting", i, pending.len());
@@ -78,82 +79,103 @@ impl CellComplex {
             cx.place_polygon(model, tet, &mut placer, p, &supports[s], flipped);
         }
         cx.stats.polygons_clipped = pending.len();
-        cx.stats.timings.push(("splitting".into(), t2.elapsed().as_secs_f64()));
+        cx.stats.stage("splitting", t2.elapsed().as_secs_f64());
 
         let t25 = Instant::now();
         cx.seal_cracks(model, &mut placer, &supports, &of);
         cx.stats.cells_after_split = cx.cells.iter().filter(|c| c.alive).count();
-        cx.stats
-            .timings
-            .push(("sealing cracks".into(), t25.elapsed().as_secs_f64()));
+        cx.stats.stage("sealing cracks", t25.elapsed().as_secs_f64());
 
         let t3 = Instant::now();
         cx.build_graph();
-        cx.stats
-            .timings
-            .push(("portal graph".into(), t3.elapsed().as_secs_f64()));
+        cx.stats.stage("portal graph", t3.elapsed().as_secs_f64());
 
         let t4 = Instant::now();
         cx.remove_exterior();
-        cx.stats
-            .timings
-            .push(("exterior removal".into(), t4.elapsed().as_secs_f64()));
+        cx.stats.stage("exterior removal", t4.elapsed().as_secs_f64());
+
+        let t5 = Instant::now();
+        cx.shrink_storage();
+        cx.stats.stage("compact storage", t5.elapsed().as_secs_f64());
         cx
     }
 
     /// Stage 1: one cell per finite tetrahedron, one patch per face.
+    ///
+    /// Patch ids follow the tetrahedra: a face belongs to the smaller of its two
+    /// tetrahedra (or its only one, on the hull), and each tetrahedron's faces get
+    /// consecutive ids in face order, after those of every smaller tetrahedron. So each
+    /// tetrahedron's first id is a prefix sum of the counts, and patches and cells are
+    /// built on every core (rayon) with the ids one thread gives.
     fn from_tets(model: &Model, tet: &Tetrahedralization) -> CellComplex {
         let nt = tet.num_tets();
-        let mut patches: Vec<Patch> = Vec::with_capacity(2 * nt + tet.num_hull_faces());
-        let mut face_patch: Vec<[u32; 4]> = vec![[u32::MAX; 4]; nt];
-        let mut hull_volume = 0.0;
-        for (t, _) in tet.tets() {
-            hull_volume += tet.volume(t);
-            for i in 0..4 {
-                if face_patch[t.idx()][i] != u32::MAX {
-                    continue;
-                }
-                let poly = ConvexPolygon::new(tet.face(t, i).iter().map(|v| *tet.point(*v)).collect());
-                let id = patches.len() as u32;
-                let other = match tet.neighbor(t, i) {
-                    Some((n, j)) => {
-                        face_patch[n.idx()][j] = id;
-                        CellId(n.0)
-                    }
-                    None => HULL,
-                };
-                face_patch[t.idx()][i] = id;
-                patches.push(Patch {
-                    polygon: poly,
-                    cells: [CellId(t.0), other],
-                    occluders: Vec::new(),
-                    alive: true,
-                });
-            }
+        let owns = |t: usize, i: usize| tet.neighbor(TetId(t as u32), i).is_none_or(|(n, _)| n.idx() > t);
+        let mut first: Vec<u32> = (0..nt)
+            .into_par_iter()
+            .with_min_len(4096)
+            .map(|t| (0..4).filter(|&i| owns(t, i)).count() as u32)
+            .collect();
+        let mut acc = 0u32;
+        for f in first.iter_mut() {
+            let k = *f;
+            *f = acc;
+            acc += k;
         }
-        let cells = tet
-            .tets()
-            .map(|(t, _)| {
-                let faces = (0..4)
-                    .map(|i| patches[face_patch[t.idx()][i] as usize].polygon.clone())
-                    .collect::<Vec<_>>();
+        let own_id = |t: usize, i: usize| first[t] + (0..i).filter(|&j| owns(t, j)).count() as u32;
+        let face_patch: Vec<[u32; 4]> = (0..nt)
+            .into_par_iter()
+            .with_min_len(4096)
+            .map(|t| {
+                std::array::from_fn(|i| match tet.neighbor(TetId(t as u32), i) {
+                    Some((n, j)) if n.idx() < t => own_id(n.idx(), j),
+                    _ => own_id(t, i),
+                })
+            })
+            .collect();
+        let patches: Vec<Patch> = (0..nt)
+            .into_par_iter()
+            .with_min_len(1024)
+            .flat_map_iter(|t| {
+                (0..4).filter(move |&i| owns(t, i)).map(move |i| {
+                    let tid = TetId(t as u32);
+                    let poly = ConvexPolygon::new(tet.face(tid, i).iter().map(|v| *tet.point(*v)).collect());
+                    let other = tet.neighbor(tid, i).map_or(HULL, |(n, _)| CellId(n.0));
+                    Patch {
+                        polygon: poly,
+                        cells: [CellId(t as u32), other],
+                        occluders: Vec::new(),
+                        alive: true,
+                    }
+                })
+            })
+            .collect();
+        debug_assert_eq!(patches.len(), acc as usize);
+        // In tetrahedron order, so the sum's bits do not depend on the thread count.
+        let hull_volume = tet.tets().fold(0.0, |v, (t, _)| v + tet.volume(t));
+        let tol = &model.tolerances;
+        let cells: Vec<Cell> = (0..nt)
+            .into_par_iter()
+            .with_min_len(1024)
+            .map(|ti| {
+                let t = TetId(ti as u32);
                 // The patch polygon is oriented outward of cells[0]; reverse it where this
                 // tetrahedron is cells[1].
-                let faces = faces
-                    .into_iter()
-                    .enumerate()
-                    .map(|(i, f)| {
-                        let p = &patches[face_patch[t.idx()][i] as usize];
-                        if p.cells[0] == CellId(t.0) { f } else { f.reversed() }
+                let faces = (0..4)
+                    .map(|i| {
+                        let p = &patches[face_patch[ti][i] as usize];
+                        if p.cells[0] == CellId(t.0) {
+                            p.polygon.clone()
+                        } else {
+                            p.polygon.reversed()
+                        }
                     })
                     .collect();
-                let poly = ConvexPolyhedron::from_faces(faces, face_patch[t.idx()].to_vec());
+                let poly = ConvexPolyhedron::from_faces(faces, face_patch[ti].to_vec());
                 // Near-flat tetrahedra (four nearly coplanar input points, e.g. the corners
                 // of a wall quad after rotation) are valid Delaunay cells but hold no space.
                 // Its thickness is its smallest height, 3V / (largest face area); thinner
                 // than the weld distance (the same rule `cut` uses) means flat.
                 let amax = poly.faces.iter().map(|f| f.area()).fold(0.0, f64::max);
-                let tol = &model.tolerances;
                 let flat =
                     3.0 * tet.volume(t) < tol.weld_abs().max(tol.plane_abs()) * amax || tet.volume(t) < min_volume(tol);
                 Cell {
@@ -1072,10 +1094,19 @@ fn support_planes(model: &Model, pending: &[PolygonId], tol: &crate::Tolerances)
     let tolc = tol.coplanar_abs();
     // Each polygon from its canonical start, and the largest first, ties in geometric
     // order: the supports do not depend on face order or face starts.
-    let cycles: Vec<Vec<[f64; 3]>> = pending.iter().map(|&p| canonical_cycle(model, p)).collect();
+    let cycles: Vec<Vec<[f64; 3]>> = pending
+        .par_iter()
+        .with_min_len(256)
+        .map(|&p| canonical_cycle(model, p))
+        .collect();
     let mut order: Vec<usize> = (0..pending.len()).collect();
-    let areas: Vec<f64> = cycles.iter().map(|c| ConvexPolygon::new(c.clone()).area()).collect();
-    order.sort_by(|&a, &b| {
+    let areas: Vec<f64> = cycles
+        .par_iter()
+        .with_min_len(256)
+        .map(|c| ConvexPolygon::new(c.clone()).area())
+        .collect();
+    // A total order (ties by index), so the parallel sort gives the one order.
+    order.par_sort_by(|&a, &b| {
         areas[b]
             .total_cmp(&areas[a])
             .then_with(|| cmp_cycles(&cycles[a], &cycles[b]))

@@ -4,7 +4,11 @@
 use super::{CellComplex, HULL, Leak, PatchId, Portal};
 use crate::geom::ConvexPolygon;
 use crate::ids::CellId;
+use rayon::prelude::*;
 use std::collections::{HashMap, VecDeque};
+
+/// Patches per block of the portal graph's parallel subtraction (see `build_graph`).
+const GRAPH_BLOCK: usize = 1 << 14;
 
 fn perimeter(p: &ConvexPolygon) -> f64 {
     let n = p.verts.len();
@@ -125,6 +129,8 @@ impl CellComplex {
         let mut portals: Vec<Portal> = Vec::new();
         let (mut slivers, mut sliver_area) = (0usize, 0.0f64);
         let membrane: Vec<bool> = (0..self.cells.len())
+            .into_par_iter()
+            .with_min_len(1024)
             .map(|i| self.cells[i].alive && self.is_membrane(CellId(i as u32)))
             .collect();
         let mut add = |a: CellId, b: CellId, pieces: Vec<ConvexPolygon>| {
@@ -134,10 +140,12 @@ impl CellComplex {
             } else {
                 ((b, a), pieces.iter().map(|p| p.reversed()).collect())
             };
+            let np = pieces.len();
             let k = *by_pair.entry(key).or_insert_with(|| {
                 portals.push(Portal {
                     cells: [key.0, key.1],
-                    pieces: Vec::new(),
+                    // Most pairs meet over one patch: no growth slack (see `shrink_storage`).
+                    pieces: Vec::with_capacity(np),
                     area: 0.0,
                 });
                 portals.len() - 1
@@ -149,25 +157,37 @@ impl CellComplex {
         };
         // Sliver openings between two graph nodes, oriented from the first cell to the second.
         let mut dropped: Vec<Link> = Vec::new();
-        for (pi, patch) in self.patches.iter().enumerate() {
-            if !patch.alive || patch.cells[1] == HULL {
-                continue;
-            }
+        // The subtraction per patch on every core (rayon), in blocks so that only one
+        // block's pieces wait at a time; each block is consumed in patch order, so counts,
+        // sums and portal order are those of one thread.
+        let between = |pi: usize| {
+            let patch = &self.patches[pi];
             let (a, b) = (patch.cells[0], patch.cells[1]);
-            if !self.cells[a.idx()].alive || !self.cells[b.idx()].alive {
-                continue;
-            }
-            let (pieces, sliver_pieces, s, sa) = self.open_and_sliver_pieces(PatchId(pi as u32));
-            slivers += s;
-            sliver_area += sa;
-            // A membrane (flat or thinner than the sliver width) is not a room: see
-            // `through_flat`.
-            if membrane[a.idx()] || membrane[b.idx()] {
-                continue;
-            }
-            dropped.extend(sliver_pieces.into_iter().map(|q| (a, b, q)));
-            if !pieces.is_empty() {
-                add(a, b, pieces);
+            (patch.alive && b != HULL && self.cells[a.idx()].alive && self.cells[b.idx()].alive).then_some((a, b))
+        };
+        for start in (0..self.patches.len()).step_by(GRAPH_BLOCK) {
+            let block = start..(start + GRAPH_BLOCK).min(self.patches.len());
+            let open: Vec<_> = block
+                .clone()
+                .into_par_iter()
+                .with_min_len(64)
+                .map(|pi| between(pi).map(|_| self.open_and_sliver_pieces(PatchId(pi as u32))))
+                .collect();
+            for (pi, o) in block.zip(open) {
+                let (Some((a, b)), Some((pieces, sliver_pieces, s, sa))) = (between(pi), o) else {
+                    continue;
+                };
+                slivers += s;
+                sliver_area += sa;
+                // A membrane (flat or thinner than the sliver width) is not a room: see
+                // `through_flat`.
+                if membrane[a.idx()] || membrane[b.idx()] {
+                    continue;
+                }
+                dropped.extend(sliver_pieces.into_iter().map(|q| (a, b, q)));
+                if !pieces.is_empty() {
+                    add(a, b, pieces);
+                }
             }
         }
         let (links, hull) = self.through_flat(&membrane);

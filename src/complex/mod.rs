@@ -204,6 +204,30 @@ pub struct ComplexStats {
     pub openings_sealed: usize,
     /// Stage timings in seconds, in order.
     pub timings: Vec<(String, f64)>,
+    /// The process's peak resident memory (MiB, Linux `VmHWM`) at the end of each stage of
+    /// [`CellComplex::build`], named like `timings` (empty where it cannot be read). Not
+    /// serialized: like timings, a property of the machine and the process.
+    #[serde(skip)]
+    pub memory: Vec<(String, f64)>,
+}
+
+/// The process's peak resident memory so far in MiB (Linux `VmHWM` of
+/// `/proc/self/status`; `None` elsewhere).
+pub(crate) fn peak_rss_mib() -> Option<f64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib / 1024.0)
+}
+
+impl ComplexStats {
+    /// Records a finished stage: its seconds in `timings`, the peak memory in `memory`.
+    pub(crate) fn stage(&mut self, name: &str, secs: f64) {
+        self.timings.push((name.to_string(), secs));
+        if let Some(m) = peak_rss_mib() {
+            self.memory.push((name.to_string(), m));
+        }
+    }
 }
 
 /// The cell complex with its portal graph.
@@ -315,6 +339,38 @@ impl CellComplex {
         self.portals.shrink_to_fit();
         self.cracks.shrink_to_fit();
         (cells, patches)
+    }
+
+    /// Drops the growth slack of the build's vectors (a `Vec` pushed once holds room for
+    /// four): occluders and their polygons, patch polygons, alive cells' faces and tags,
+    /// portal and crack pieces. Contents, ids and order are unchanged. The build calls it
+    /// last, so the checks and the decimation run on the smaller heap.
+    pub(crate) fn shrink_storage(&mut self) {
+        use rayon::prelude::*;
+        fn poly(p: &mut ConvexPolygon) {
+            p.verts.shrink_to_fit();
+        }
+        self.patches.par_iter_mut().with_min_len(1024).for_each(|p| {
+            if p.alive {
+                poly(&mut p.polygon);
+            }
+            p.occluders.shrink_to_fit();
+            p.occluders.iter_mut().for_each(|o| poly(&mut o.polygon));
+        });
+        self.cells.par_iter_mut().with_min_len(1024).for_each(|c| {
+            if c.alive {
+                c.poly.faces.shrink_to_fit();
+                c.poly.tags.shrink_to_fit();
+                c.poly.faces.iter_mut().for_each(poly);
+            }
+        });
+        for list in [&mut self.portals, &mut self.cracks] {
+            list.par_iter_mut().with_min_len(1024).for_each(|p| {
+                p.pieces.shrink_to_fit();
+                p.pieces.iter_mut().for_each(poly);
+            });
+            list.shrink_to_fit();
+        }
     }
 
     /// Alive cells (not split), including exterior ones.

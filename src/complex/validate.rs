@@ -4,6 +4,7 @@ use super::{CellComplex, HULL, PatchId};
 use crate::geom::{Classification, ConvexPolygon, ConvexPolyhedron, Cut, Plane};
 use crate::ids::CellId;
 use crate::model::Model;
+use rayon::prelude::*;
 
 /// The first violated invariant of a cell complex.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -149,53 +150,75 @@ impl CellComplex {
         Ok(())
     }
 
+    /// The per-cell part of [`check_cells`](Self::check_cells) for alive cell `i`: the
+    /// first violation in the order of the sequential checks (geometry, duplicate tags,
+    /// dead patch, patch not listing the cell).
+    fn check_cell(&self, i: usize) -> Option<ComplexError> {
+        let c = &self.cells[i];
+        // Flat cells are exact, positively oriented tetrahedra (checked by the
+        // tetrahedralization's validation) too thin for a floating-point check.
+        if !c.flat
+            && let Err(why) = c.poly.check(&self.tol)
+        {
+            return Some(ComplexError::BadCell { cell: i as u32, why });
+        }
+        // Each face is its own patch (the `union` estimator keys boundary faces by patch).
+        // The smallest repeated tag, as a sort would find it, without allocating.
+        let tags = &c.poly.tags;
+        let dup = tags
+            .iter()
+            .enumerate()
+            .filter(|&(k, t)| tags[..k].contains(t))
+            .map(|(_, &t)| t)
+            .min();
+        if let Some(t) = dup {
+            return Some(ComplexError::Topology {
+                cell: i as u32,
+                patch: t,
+                why: "two faces of the cell name the same patch",
+            });
+        }
+        for &t in tags {
+            let p = &self.patches[t as usize];
+            if !p.alive {
+                return Some(ComplexError::Topology {
+                    cell: i as u32,
+                    patch: t,
+                    why: "face names a dead patch",
+                });
+            }
+            if !p.cells.contains(&CellId(i as u32)) {
+                return Some(ComplexError::Topology {
+                    cell: i as u32,
+                    patch: t,
+                    why: "patch does not list the cell",
+                });
+            }
+        }
+        None
+    }
+
     fn check_cells(&self) -> Result<(usize, f64), ComplexError> {
-        let tol = &self.tol;
+        // The per-cell checks on every core; `find_map_first` returns the violation of the
+        // smallest cell id, as the sequential loop did, whatever the thread count.
+        let first = (0..self.cells.len())
+            .into_par_iter()
+            .with_min_len(256)
+            .filter(|&i| self.cells[i].alive)
+            .find_map_first(|i| self.check_cell(i));
+        if let Some(e) = first {
+            return Err(e);
+        }
+        // The volume sum in cell order (cheap next to the checks), so its bits do not
+        // depend on the thread count either.
         let mut count = 0;
         let mut vol = 0.0;
         // Rounding bound of the volume sum (see `volume_rounding`).
         let mut rounding = 0.0;
-        for (i, c) in self.cells.iter().enumerate() {
-            if !c.alive {
-                continue;
-            }
+        for c in self.cells.iter().filter(|c| c.alive) {
             count += 1;
-            // Flat cells are exact, positively oriented tetrahedra (checked by the
-            // tetrahedralization's validation) too thin for a floating-point check.
-            if !c.flat {
-                c.poly
-                    .check(tol)
-                    .map_err(|why| ComplexError::BadCell { cell: i as u32, why })?;
-            }
             vol += c.poly.volume();
             rounding += volume_rounding(&c.poly);
-            // Each face is its own patch (the `union` estimator keys boundary faces by patch).
-            let mut tags = c.poly.tags.clone();
-            tags.sort_unstable();
-            if let Some(w) = tags.windows(2).find(|w| w[0] == w[1]) {
-                return Err(ComplexError::Topology {
-                    cell: i as u32,
-                    patch: w[0],
-                    why: "two faces of the cell name the same patch",
-                });
-            }
-            for &t in &c.poly.tags {
-                let p = &self.patches[t as usize];
-                if !p.alive {
-                    return Err(ComplexError::Topology {
-                        cell: i as u32,
-                        patch: t,
-                        why: "face names a dead patch",
-                    });
-                }
-                if !p.cells.contains(&CellId(i as u32)) {
-                    return Err(ComplexError::Topology {
-                        cell: i as u32,
-                        patch: t,
-                        why: "patch does not list the cell",
-                    });
-                }
-            }
         }
         let rel = (vol - self.hull_volume).abs() / self.hull_volume;
         // Cells fill the hull when the sums agree to 1e-9 relative, or within the rounding
@@ -273,16 +296,15 @@ impl CellComplex {
     /// No model polygon (where it was placed: projected onto its support plane) crosses the
     /// interior of an alive cell, neither with a fragment above the area tolerance nor by
     /// covering the cell's whole cross-section up to cracks (`crack_crossing`), whatever
-    /// its size. Uses a uniform grid over polygon bounding boxes. The pipeline runs it after
-    /// [`check_valid`](Self::check_valid) on every build, so `run` refuses such a complex.
+    /// its size. The pipeline runs it after [`check_valid`](Self::check_valid) on every
+    /// build, so `run` refuses such a complex.
+    ///
+    /// Candidates come from a uniform grid over the polygons' bounding boxes
+    /// ([`PolygonGrid`]); cells are checked in parallel (rayon) and the error is the one of
+    /// the smallest cell id, and for that cell of the smallest polygon id, whatever the
+    /// thread count.
     pub fn check_no_crossing(&self, model: &Model) -> Result<(), ComplexError> {
         let tol = &self.tol;
-        let (lo, hi) = model.bbox();
-        let n = model.polygons.len().max(1);
-        let k = ((n as f64).cbrt().ceil() as usize).clamp(1, 64);
-        let size: Vec<f64> = (0..3).map(|a| ((hi[a] - lo[a]) / k as f64).max(1e-300)).collect();
-        let cell_of = |p: &[f64; 3], a: usize| (((p[a] - lo[a]) / size[a]).floor().max(0.0) as usize).min(k - 1);
-        let mut grid: Vec<Vec<u32>> = vec![Vec::new(); k * k * k];
         // Each polygon where it was placed: projected onto its support plane.
         let planes: Vec<Plane> = (0..model.polygons.len())
             .map(|i| match self.polygon_planes.get(i) {
@@ -307,92 +329,226 @@ impl CellComplex {
                 )
             })
             .collect();
-        for (i, p) in polys.iter().enumerate() {
-            let (a, b) = bbox(&p.verts);
-            for x in cell_of(&a, 0)..=cell_of(&b, 0) {
-                for y in cell_of(&a, 1)..=cell_of(&b, 1) {
-                    for z in cell_of(&a, 2)..=cell_of(&b, 2) {
-                        grid[(x * k + y) * k + z].push(i as u32);
-                    }
-                }
-            }
-        }
-        let mut stamp = vec![u32::MAX; polys.len()];
-        for (ci, c) in self.cells.iter().enumerate() {
+        let boxes: Vec<([f64; 3], [f64; 3])> = polys.iter().map(|p| bbox(&p.verts)).collect();
+        let grid = PolygonGrid::new(&boxes);
+        // Only a cut deeper than the snapping tolerances on both sides is a crossing:
+        // polygons are placed on shared support planes (within `coplanar`) and slabs
+        // thinner than `weld` are never split.
+        let thick = tol.coplanar_abs().max(tol.weld_abs());
+        // How far outside a cell's bounding box a polygon's box may lie and still meet the
+        // cell in either test below. Both report only a polygon that meets the cell: the
+        // fragment test a fragment whose centroid lies deeper than `thick` inside every
+        // face plane (so inside the cell and its box) and, being a convex combination of
+        // points of the polygon, inside the polygon's box up to rounding; the crack test
+        // a polygon that covers part of the cell's section (subtraction decides overlap
+        // within the plane tolerance; contacts within `slack` of a face plane count). A
+        // polygon whose box is farther than this from the cell's box on some axis
+        // therefore fires neither, and is skipped before any geometry. (Such a polygon
+        // could fire the crack test only through a section below the sealing area
+        // tolerance, which the subtraction drops whatever the polygon: a false report.)
+        let reach = thick + 4.0 * tol.plane_abs() + tol.weld_abs();
+        // The plane test (`front`, `back` beyond `thick`) implies `Straddles` for the
+        // polyhedron's own classification whenever `thick` exceeds the plane tolerance
+        // by the rounding of a normalized plane's length (a factor 2 is ample); the
+        // classification is kept for tolerances where it does not.
+        let classify = thick <= 2.0 * tol.plane_abs();
+        let cell_check = |(cand, tested): &mut (Vec<u32>, Vec<(Plane, bool)>), ci: usize| -> Option<ComplexError> {
+            let c = &self.cells[ci];
             // Flat cells have no interior to cross.
             if !c.alive || c.flat {
-                continue;
+                return None;
             }
             let (a, b) = c.poly.aabb();
+            let (lo, hi) = (a.map(|x| x - reach), b.map(|x| x + reach));
+            cand.clear();
+            grid.visit(&lo, &hi, |pi| {
+                let (pa, pb) = &boxes[pi as usize];
+                if (0..3).all(|k| pa[k] <= hi[k] && pb[k] >= lo[k]) {
+                    cand.push(pi);
+                }
+            });
+            if cand.is_empty() {
+                return None;
+            }
+            cand.sort_unstable();
+            cand.dedup();
             // Once per cell, not per candidate polygon.
             let verts = c.poly.vertices();
-            let face_planes = c.poly.planes();
-            for x in cell_of(&a, 0)..=cell_of(&b, 0) {
-                for y in cell_of(&a, 1)..=cell_of(&b, 1) {
-                    for z in cell_of(&a, 2)..=cell_of(&b, 2) {
-                        for &pi in &grid[(x * k + y) * k + z] {
-                            if stamp[pi as usize] == ci as u32 {
-                                continue;
-                            }
-                            stamp[pi as usize] = ci as u32;
-                            let poly = &polys[pi as usize];
-                            let plane = planes[pi as usize];
-                            // Only a cut deeper than the snapping tolerances on both sides is a
-                            // crossing: polygons are placed on shared support planes (within
-                            // `coplanar`) and slabs thinner than `weld` are never split.
-                            let thick = tol.coplanar_abs().max(tol.weld_abs());
-                            let ds: Vec<f64> = verts.iter().map(|v| plane.eval(v)).collect();
-                            let (front, back) = ds.iter().fold((0.0f64, 0.0f64), |(f, b), &d| (f.max(d), b.max(-d)));
-                            if front <= thick
-                                || back <= thick
-                                || c.poly.classify(&plane, tol) != Classification::Straddles
-                            {
-                                continue;
-                            }
-                            let mut cur = Some(poly.clone());
-                            for f in &face_planes {
-                                cur = cur.and_then(|q| q.split(f, tol).1);
-                            }
-                            if let Some(q) = cur {
-                                // The fragment crosses the interior only if its centroid lies
-                                // deeper than the snapping tolerance inside every face plane.
-                                let area = q.area();
-                                let ctr = q.centroid();
-                                let depth = face_planes
-                                    .iter()
-                                    .map(|f| -f.normalized().eval(&ctr))
-                                    .fold(f64::INFINITY, f64::min);
-                                // Fragments narrower than the sliver width can only open
-                                // cracks that the portal graph discards as slivers.
-                                let n = q.verts.len();
-                                let per: f64 = (0..n)
-                                    .map(|i| {
-                                        let (a, b) = (q.verts[i], q.verts[(i + 1) % n]);
-                                        ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
-                                    })
-                                    .sum();
-                                let wide = 2.0 * area >= tol.sliver_width() * per;
-                                if area > 16.0 * tol.area_abs() && depth > thick && wide {
-                                    return Err(ComplexError::Crossing {
-                                        polygon: pi,
-                                        cell: ci as u32,
-                                        area,
-                                    });
-                                }
-                            }
-                            if let Some(area) = crack_crossing(&c.poly, &plane, poly, tol) {
-                                return Err(ComplexError::Crossing {
-                                    polygon: pi,
-                                    cell: ci as u32,
-                                    area,
-                                });
-                            }
+            let mut face_planes: Option<Vec<Plane>> = None;
+            // The plane test per distinct plane (polygons on one support plane share it).
+            tested.clear();
+            for &pi in cand.iter() {
+                let poly = &polys[pi as usize];
+                let plane = planes[pi as usize];
+                let deep = match tested.iter().find(|(p, _)| *p == plane) {
+                    Some(&(_, deep)) => deep,
+                    None => {
+                        let (mut front, mut back) = (0.0f64, 0.0f64);
+                        for v in &verts {
+                            let d = plane.eval(v);
+                            front = front.max(d);
+                            back = back.max(-d);
                         }
+                        let deep = front > thick
+                            && back > thick
+                            && !(classify && c.poly.classify(&plane, tol) != Classification::Straddles);
+                        tested.push((plane, deep));
+                        deep
                     }
+                };
+                if !deep {
+                    continue;
+                }
+                let face_planes = face_planes.get_or_insert_with(|| c.poly.planes());
+                let mut cur = Some(poly.clone());
+                for f in face_planes.iter() {
+                    cur = cur.and_then(|q| q.split(f, tol).1);
+                }
+                if let Some(q) = cur {
+                    // The fragment crosses the interior only if its centroid lies deeper
+                    // than the snapping tolerance inside every face plane.
+                    let area = q.area();
+                    let ctr = q.centroid();
+                    let depth = face_planes
+                        .iter()
+                        .map(|f| -f.normalized().eval(&ctr))
+                        .fold(f64::INFINITY, f64::min);
+                    // Fragments narrower than the sliver width can only open cracks that
+                    // the portal graph discards as slivers.
+                    let n = q.verts.len();
+                    let per: f64 = (0..n)
+                        .map(|i| {
+                            let (a, b) = (q.verts[i], q.verts[(i + 1) % n]);
+                            ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+                        })
+                        .sum();
+                    let wide = 2.0 * area >= tol.sliver_width() * per;
+                    if area > 16.0 * tol.area_abs() && depth > thick && wide {
+                        return Some(ComplexError::Crossing {
+                            polygon: pi,
+                            cell: ci as u32,
+                            area,
+                        });
+                    }
+                }
+                if let Some(area) = crack_crossing(&c.poly, &plane, poly, tol) {
+                    return Some(ComplexError::Crossing {
+                        polygon: pi,
+                        cell: ci as u32,
+                        area,
+                    });
+                }
+            }
+            None
+        };
+        let first = (0..self.cells.len())
+            .into_par_iter()
+            .with_min_len(256)
+            .map_init(Default::default, cell_check)
+            .find_map_first(|e| e);
+        match first {
+            Some(e) => Err(e),
+            None => Ok(()),
+        }
+    }
+}
+
+/// A uniform grid of cubic buckets over axis-aligned boxes, in compressed rows (one
+/// offset per bucket, no `Vec` per bucket): about one bucket per box, dimensions in
+/// proportion to the boxes' extent (a flat building gets a flat grid), at most
+/// [`PolygonGrid::MAX_DIM`] per axis.
+struct PolygonGrid {
+    lo: [f64; 3],
+    size: [f64; 3],
+    dims: [usize; 3],
+    start: Vec<u32>,
+    items: Vec<u32>,
+}
+
+impl PolygonGrid {
+    const MAX_DIM: usize = 1024;
+
+    fn new(boxes: &[([f64; 3], [f64; 3])]) -> Self {
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for (a, b) in boxes {
+            for k in 0..3 {
+                lo[k] = lo[k].min(a[k]);
+                hi[k] = hi[k].max(b[k]);
+            }
+        }
+        if boxes.is_empty() || !(0..3).all(|k| lo[k].is_finite() && hi[k].is_finite()) {
+            lo = [0.0; 3];
+            hi = [0.0; 3];
+        }
+        let ext: [f64; 3] = std::array::from_fn(|k| hi[k] - lo[k]);
+        let emax = ext.iter().fold(0.0f64, |m, &e| m.max(e));
+        let target = boxes.len().max(1) as f64;
+        // Bucket side: the cube root of the (floored) volume per box.
+        let e: [f64; 3] = ext.map(|x| x.max(emax / Self::MAX_DIM as f64));
+        let h = (e[0] * e[1] * e[2] / target).cbrt();
+        let dims: [usize; 3] = std::array::from_fn(|k| {
+            if h > 0.0 && h.is_finite() {
+                ((ext[k] / h).ceil() as usize).clamp(1, Self::MAX_DIM)
+            } else {
+                1
+            }
+        });
+        let size: [f64; 3] = std::array::from_fn(|k| (ext[k] / dims[k] as f64).max(1e-300));
+        let mut g = PolygonGrid {
+            lo,
+            size,
+            dims,
+            start: Vec::new(),
+            items: Vec::new(),
+        };
+        let n = dims[0] * dims[1] * dims[2];
+        let mut count = vec![0u32; n + 1];
+        for (a, b) in boxes {
+            g.buckets(a, b, |q| count[q] += 1);
+        }
+        let mut acc = 0u32;
+        for c in count.iter_mut() {
+            let k = *c;
+            *c = acc;
+            acc += k;
+        }
+        let mut items = vec![0u32; acc as usize];
+        let mut next = count.clone();
+        for (i, (a, b)) in boxes.iter().enumerate() {
+            g.buckets(a, b, |q| {
+                items[next[q] as usize] = i as u32;
+                next[q] += 1;
+            });
+        }
+        g.start = count;
+        g.items = items;
+        g
+    }
+
+    fn bucket_of(&self, p: &[f64; 3], k: usize) -> usize {
+        (((p[k] - self.lo[k]) / self.size[k]).floor().max(0.0) as usize).min(self.dims[k] - 1)
+    }
+
+    /// Calls `f` with every bucket index meeting the box `[a, b]`.
+    fn buckets(&self, a: &[f64; 3], b: &[f64; 3], mut f: impl FnMut(usize)) {
+        let [_, ny, nz] = self.dims;
+        for x in self.bucket_of(a, 0)..=self.bucket_of(b, 0) {
+            for y in self.bucket_of(a, 1)..=self.bucket_of(b, 1) {
+                for z in self.bucket_of(a, 2)..=self.bucket_of(b, 2) {
+                    f((x * ny + y) * nz + z);
                 }
             }
         }
-        Ok(())
+    }
+
+    /// Calls `f` with every item in a bucket meeting the box `[a, b]` (an item once per
+    /// bucket, so possibly several times).
+    fn visit(&self, a: &[f64; 3], b: &[f64; 3], mut f: impl FnMut(u32)) {
+        self.buckets(a, b, |q| {
+            for &i in &self.items[self.start[q] as usize..self.start[q + 1] as usize] {
+                f(i);
+            }
+        });
     }
 }
 

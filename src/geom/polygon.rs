@@ -410,6 +410,19 @@ impl FacePlane {
         let slack = tol.snap_abs() + 8.0 * self.u * (1.0 + norm(&sub(p, &self.c)) * self.inv_w);
         (d, slack)
     }
+
+    /// [`test`](Self::test)'s pair only when `p` is farther in front than allowed. The
+    /// allowance is at least `snap_abs + 8u` (its distance term is never negative), so a
+    /// point within that needs no distance to the centroid: same answer, fewer roots.
+    #[inline]
+    pub(crate) fn violation(&self, p: &P3, tol: &Tolerances) -> Option<(f64, f64)> {
+        let d = self.plane.signed_distance(p);
+        if d <= tol.snap_abs() + 8.0 * self.u {
+            return None;
+        }
+        let (_, slack) = self.test(p, tol);
+        (d > slack).then_some((d, slack))
+    }
 }
 
 /// A vertex in the 2D working frame, carrying its 3D position.

@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use super::plane::{Classification, Classifier, Plane, Side};
 use super::polygon::{ConvexPolygon, FacePlane, crossing, walk_split};
-use super::vec::{Key, add, cross, dot, key, scale, sub};
+use super::vec::{Key, add, cross, dot, key, norm, scale, sub};
 
 /// Up to this many vertex occurrences over all faces, [`ConvexPolyhedron::vertices`] scans
 /// instead of hashing.
@@ -625,6 +625,19 @@ impl ConvexPolyhedron {
         if self.faces.len() < 4 {
             return Err(format!("only {} faces", self.faces.len()));
         }
+        let occurrences: usize = self.faces.iter().map(|f| f.verts.len()).sum();
+        // Arrays sized to the cell (tetrahedra: 12 occurrences), so zeroing them is cheap.
+        if occurrences <= 16 {
+            return self.check_small::<16>(tol);
+        }
+        if occurrences <= SMALL_OCCURRENCES {
+            return self.check_small::<SMALL_OCCURRENCES>(tol);
+        }
+        self.check_general(tol)
+    }
+
+    /// [`check`](Self::check) after the face count tests, for any size.
+    fn check_general(&self, tol: &Tolerances) -> Result<(), String> {
         // Directed edges, sorted: a count is the length of an equal run (no hashing).
         let mut edges: Vec<(Key, Key)> = Vec::with_capacity(self.faces.iter().map(|f| f.verts.len()).sum());
         for (fi, f) in self.faces.iter().enumerate() {
@@ -667,8 +680,122 @@ impl ConvexPolyhedron {
         for (fi, f) in self.faces.iter().enumerate() {
             let Some(fp) = FacePlane::new(f, tol) else { continue };
             for p in &verts {
-                let (d, slack) = fp.test(p, tol);
-                if d > slack {
+                if let Some((d, slack)) = fp.violation(p, tol) {
+                    return Err(format!("vertex {p:?} is {d:e} (> {slack:e}) in front of face {fi}"));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+impl ConvexPolyhedron {
+    /// [`check`](Self::check) for cells of at most [`SMALL_OCCURRENCES`] vertex occurrences
+    /// (tetrahedra and the few cuts of one: nearly every cell), the same tests in the
+    /// same order with the same messages, cheaper: vertices are numbered once (exact bit
+    /// keys, as `check` compares them), edges are pairs of small numbers, and a triangle
+    /// face all of whose vertices lie clearly behind its plane skips the rounding-aware
+    /// test. That skip is exact: the face's [`FacePlane`] has the Newell normal of the
+    /// triangle (the very cross product `n` below, normalized) through its centroid, so
+    /// the distance it computes for a vertex `p` differs from `n·(p − a) / |n|` by
+    /// rounding only — at most `16 ε (D + M)` with `D` the cell's diagonal and `M` its
+    /// largest coordinate (normalisation, the centroid's offset from the plane through
+    /// `a`, both dot products) — so a vertex within `snap_abs − 16 ε (D + M)` by the
+    /// cheap distance is within `snap_abs`, the smallest allowance `test` grants.
+    fn check_small<const N: usize>(&self, tol: &Tolerances) -> Result<(), String> {
+        // On the stack: no allocation per cell.
+        let mut keys = [[0u64; 3]; N];
+        let mut verts = [[0.0f64; 3]; N];
+        let mut nv = 0;
+        // Vertex number of every occurrence, face after face.
+        let mut idx = [0u8; N];
+        let mut ni = 0;
+        for (fi, f) in self.faces.iter().enumerate() {
+            let n = f.verts.len();
+            if n < 3 {
+                return Err(format!("face {fi} has {n} vertices"));
+            }
+            for k in 0..n {
+                if key(&f.verts[k]) == key(&f.verts[(k + 1) % n]) {
+                    return Err(format!("face {fi} repeats vertex {:?}", f.verts[k]));
+                }
+            }
+            for v in &f.verts {
+                let kv = key(v);
+                let i = match keys[..nv].iter().position(|x| *x == kv) {
+                    Some(i) => i,
+                    None => {
+                        keys[nv] = kv;
+                        verts[nv] = *v;
+                        nv += 1;
+                        nv - 1
+                    }
+                };
+                idx[ni] = i as u8;
+                ni += 1;
+            }
+        }
+        let (keys, verts, idx) = (&keys[..nv], &verts[..nv], &idx[..ni]);
+        // Directed edges as `from · 128 + to` (at most 96 vertices), sorted.
+        let code = |a: u8, b: u8| (a as u16) << 7 | b as u16;
+        let mut edge_buf = [0u16; N];
+        let mut at = 0;
+        for f in &self.faces {
+            let n = f.verts.len();
+            for k in 0..n {
+                edge_buf[at + k] = code(idx[at + k], idx[at + (k + 1) % n]);
+            }
+            at += n;
+        }
+        let edges = &mut edge_buf[..ni];
+        edges.sort_unstable();
+        let edges = &*edges;
+        let count = |e: u16| {
+            let lo = edges.partition_point(|x| *x < e);
+            edges[lo..].iter().take_while(|x| **x == e).count()
+        };
+        at = 0;
+        for f in &self.faces {
+            let n = f.verts.len();
+            for k in 0..n {
+                let (a, b) = (idx[at + k], idx[at + (k + 1) % n]);
+                let c = count(code(a, b));
+                let (ka, kb) = (keys[a as usize], keys[b as usize]);
+                if c != 1 {
+                    return Err(format!("directed edge {ka:?}->{kb:?} used {c} times"));
+                }
+                if count(code(b, a)) != 1 {
+                    return Err(format!("edge {ka:?}->{kb:?} has no reverse (open or T-junction)"));
+                }
+            }
+            at += n;
+        }
+        let vol = self.volume();
+        if !(vol > 0.0) {
+            return Err(format!("volume {vol}"));
+        }
+        let (mut lo, mut hi, mut m) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3], 0.0f64);
+        for v in verts {
+            for k in 0..3 {
+                lo[k] = lo[k].min(v[k]);
+                hi[k] = hi[k].max(v[k]);
+                m = m.max(v[k].abs());
+            }
+        }
+        let diag = norm(&sub(&hi, &lo));
+        let clear = tol.snap_abs() - 16.0 * f64::EPSILON * (diag + m);
+        for (fi, f) in self.faces.iter().enumerate() {
+            if f.verts.len() == 3 && clear > 0.0 {
+                let a = &f.verts[0];
+                let n = cross(&sub(&f.verts[1], a), &sub(&f.verts[2], a));
+                let ln = norm(&n);
+                if ln > 0.0 && ln.is_finite() && verts.iter().all(|p| dot(&n, &sub(p, a)) <= clear * ln) {
+                    continue;
+                }
+            }
+            let Some(fp) = FacePlane::new(f, tol) else { continue };
+            for p in verts {
+                if let Some((d, slack)) = fp.violation(p, tol) {
                     return Err(format!("vertex {p:?} is {d:e} (> {slack:e}) in front of face {fi}"));
                 }
             }
@@ -822,6 +949,79 @@ mod tests {
         }
         // The hashing path is the old code; the scan must have run.
         assert!(small > 0, "the scanning path ran ({small} small, {large} large pieces)");
+    }
+
+    /// The small-cell path of `check` gives the general path's verdict, message included:
+    /// on random cuts of a tetrahedron far from the origin and on broken copies (a face
+    /// dropped, doubled or reversed, a vertex pushed out of or into the cell, a repeated
+    /// vertex), so every error kind and the cheap convexity skip are exercised.
+    #[test]
+    fn small_cell_check_equals_the_general_check() {
+        let mut rng = Rng::new(29);
+        let (mut checked, mut errors, mut convexity) = (0, 0, 0);
+        for round in 0..80 {
+            let off = if round % 2 == 0 { 0.0 } else { 1e5 };
+            let tol = Tolerances::for_scale(3f64.sqrt());
+            let o = [off, -off, off];
+            let at = |x: f64, y: f64, z: f64| [o[0] + x, o[1] + y, o[2] + z];
+            let mut p = ConvexPolyhedron::tetrahedron(
+                &at(0.0, 0.0, 0.0),
+                &at(1.0, 0.0, 0.0),
+                &at(0.0, 1.0, 0.0),
+                &at(0.0, 0.0, 1.0),
+            );
+            for _ in 0..(round % 7) {
+                let n = rng.unit();
+                let c = at(0.25 + 0.1 * rng.f64(), 0.25 + 0.1 * rng.f64(), 0.25 + 0.1 * rng.f64());
+                let plane = Plane::new(n, dot(&n, &c) + 0.02 + 0.1 * rng.f64());
+                if let Some(sp) = p.split(&plane, &tol, 9) {
+                    p = if rng.f64() < 0.5 { sp.front } else { sp.back };
+                }
+            }
+            let mut variants = vec![p.clone(); 7];
+            variants[1].faces.pop();
+            variants[1].tags.pop();
+            let f0 = variants[2].faces[0].clone();
+            variants[2].faces.push(f0);
+            variants[2].tags.push(0);
+            variants[3].faces[0].verts.reverse();
+            // Every occurrence of one vertex moved along a random direction: out of the
+            // cell (convexity), or in (still convex) — consistently, so edges still match.
+            for (k, scale) in [(4usize, 1e-3), (5, -1e-9)] {
+                let v = variants[k].faces[0].verts[0];
+                let d = rng.unit();
+                let w = [v[0] + scale * d[0], v[1] + scale * d[1], v[2] + scale * d[2]];
+                for f in &mut variants[k].faces {
+                    for x in &mut f.verts {
+                        if key(x) == key(&v) {
+                            *x = w;
+                        }
+                    }
+                }
+            }
+            let dup = variants[6].faces[0].verts[0];
+            variants[6].faces[0].verts.insert(1, dup);
+            for v in &variants {
+                let occ: usize = v.faces.iter().map(|f| f.verts.len()).sum();
+                if v.faces.len() < 4 || occ > SMALL_OCCURRENCES {
+                    continue;
+                }
+                let (small, general) = (v.check_small::<SMALL_OCCURRENCES>(&tol), v.check_general(&tol));
+                assert_eq!(small, general, "round {round}");
+                if occ <= 16 {
+                    assert_eq!(v.check_small::<16>(&tol), general, "round {round}");
+                }
+                checked += 1;
+                if let Err(e) = small {
+                    errors += 1;
+                    convexity += e.contains("in front of face") as usize;
+                }
+            }
+        }
+        assert!(
+            checked > 300 && errors > 100 && convexity > 5,
+            "{checked} {errors} {convexity}"
+        );
     }
 
     fn rel(a: f64, b: f64) -> f64 {

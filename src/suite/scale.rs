@@ -57,6 +57,37 @@ pub struct ScaleRow {
     /// Active cells at the start of the decimation (the run's "active cells" line).
     #[serde(default)]
     pub active_cells: Option<usize>,
+    /// With thread counts ([`ScaleOptions::threads`]): one `run` per count and repetition,
+    /// in fresh processes with `RAYON_NUM_THREADS` set, interleaved (counts in turn, then
+    /// the next repetition), in the order they ran. The row's own run figures are then
+    /// those of the largest count's first run.
+    #[serde(default)]
+    pub by_threads: Vec<ThreadRun>,
+}
+
+/// One `run` child at a fixed rayon thread count.
+#[derive(Clone, Debug, Serialize)]
+pub struct ThreadRun {
+    /// `RAYON_NUM_THREADS` of the child.
+    pub threads: usize,
+    /// Wall seconds.
+    pub run_s: f64,
+    /// CPU seconds (user + system, all threads).
+    pub run_cpu_s: f64,
+    /// Peak resident memory, MiB.
+    pub run_peak_mib: f64,
+    /// The stage report as the run printed it.
+    pub stages: Vec<(String, f64)>,
+}
+
+/// What [`run`] measures besides the sizes.
+#[derive(Clone, Debug, Default)]
+pub struct ScaleOptions {
+    /// Rayon thread counts to run each size at (e.g. `[1, 2]`); empty: one run at the
+    /// machine's default.
+    pub threads: Vec<usize>,
+    /// Runs per thread count (at least 1), interleaved.
+    pub repeat: usize,
 }
 
 /// All sizes and the fitted exponents.
@@ -99,11 +130,16 @@ struct Child {
     stdout: String,
 }
 
-/// Runs `exe args` to completion; the peak memory is the child's own (`wait4`).
-fn run_child(exe: &Path, args: &[&std::ffi::OsStr]) -> std::io::Result<Child> {
+/// Runs `exe args` to completion (with `RAYON_NUM_THREADS` set when `threads` is given);
+/// the peak memory is the child's own (`wait4`).
+fn run_child(exe: &Path, args: &[&std::ffi::OsStr], threads: Option<usize>) -> std::io::Result<Child> {
     use std::io::Read;
     let t0 = Instant::now();
-    let mut child = Command::new(exe)
+    let mut cmd = Command::new(exe);
+    if let Some(t) = threads {
+        cmd.env("RAYON_NUM_THREADS", t.to_string());
+    }
+    let mut child = cmd
         .args(args)
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::null())
@@ -200,9 +236,15 @@ fn tetrahedra(run_dir: &Path) -> Option<usize> {
 /// Runs every grid of [`GRIDS`] whose model has `min_triangles..=max_triangles` triangles.
 /// `exe` is the portalfind executable; `work` a scratch directory (models and run
 /// outputs; each size's files are removed after it ran). `log` gets progress lines.
-pub fn run(
+pub fn run(exe: &Path, sizes: (usize, usize), work: &Path, log: &mut dyn FnMut(&str)) -> std::io::Result<ScaleReport> {
+    run_with(exe, sizes, &ScaleOptions::default(), work, log)
+}
+
+/// [`run`], with the thread counts and repetitions of `opts`.
+pub fn run_with(
     exe: &Path,
     (min_triangles, max_triangles): (usize, usize),
+    opts: &ScaleOptions,
     work: &Path,
     log: &mut dyn FnMut(&str),
 ) -> std::io::Result<ScaleReport> {
@@ -220,15 +262,51 @@ pub fn run(
         drop(s);
         let out_dir: PathBuf = work.join(format!("run_{n}"));
         log(&format!("{n}x{n} rooms, {triangles} triangles: tetra ..."));
-        let tetra = run_child(exe, &["tetra".as_ref(), "--no-validate".as_ref(), model.as_os_str()])?;
+        let tetra = run_child(
+            exe,
+            &["tetra".as_ref(), "--no-validate".as_ref(), model.as_os_str()],
+            None,
+        )?;
         log(&format!(
             "  tetra {:.2} s (CPU {:.2} s), {:.0} MiB; run ...",
             tetra.secs, tetra.cpu, tetra.peak_mib
         ));
-        let run = run_child(
-            exe,
-            &["run".as_ref(), model.as_os_str(), "--out".as_ref(), out_dir.as_os_str()],
-        )?;
+        let args = ["run".as_ref(), model.as_os_str(), "--out".as_ref(), out_dir.as_os_str()];
+        let mut by_threads = Vec::new();
+        let mut main_run: Option<Child> = None;
+        let most = opts.threads.iter().copied().max();
+        if opts.threads.is_empty() {
+            main_run = Some(run_child(exe, &args, None)?);
+        }
+        for rep in 0..opts.repeat.max(1) {
+            for &t in &opts.threads {
+                let c = run_child(exe, &args, Some(t))?;
+                log(&format!(
+                    "  run at {t} thread(s) #{}: {:.2} s (CPU {:.2} s), {:.0} MiB",
+                    rep + 1,
+                    c.secs,
+                    c.cpu,
+                    c.peak_mib
+                ));
+                if !c.ok {
+                    return Err(std::io::Error::other(format!(
+                        "run failed on {} at {t} thread(s)",
+                        model.display()
+                    )));
+                }
+                by_threads.push(ThreadRun {
+                    threads: t,
+                    run_s: c.secs,
+                    run_cpu_s: c.cpu,
+                    run_peak_mib: c.peak_mib,
+                    stages: parse_stages(&c.stdout),
+                });
+                if main_run.is_none() && Some(t) == most {
+                    main_run = Some(c);
+                }
+            }
+        }
+        let run = main_run.expect("a run at the default or the largest thread count");
         log(&format!(
             "  run {:.2} s (CPU {:.2} s), {:.0} MiB",
             run.secs, run.cpu, run.peak_mib
@@ -261,6 +339,7 @@ pub fn run(
             memory: parse_memory(&run.stdout),
             tetrahedra: tets,
             active_cells: counter(&run.stdout, "active cells"),
+            by_threads,
         });
     }
     let time_exponent = loglog_slope(&rows.iter().map(|r| (r.triangles as f64, r.run_s)).collect::<Vec<_>>());
@@ -407,6 +486,104 @@ pub fn table(rep: &ScaleReport) -> String {
         }
         s.push('\n');
     }
+    s.push_str(&threads_table(&rep.rows));
+    s
+}
+
+/// Thread counts measured over all rows, ascending.
+fn thread_counts(rows: &[ScaleRow]) -> Vec<usize> {
+    let mut t: Vec<usize> = rows
+        .iter()
+        .flat_map(|r| r.by_threads.iter().map(|x| x.threads))
+        .collect();
+    t.sort_unstable();
+    t.dedup();
+    t
+}
+
+/// Median of a stage's seconds (or of the whole run's wall time, `name` = `None`) over the
+/// runs of one size at `threads`.
+fn thread_median(r: &ScaleRow, threads: usize, name: Option<&str>) -> Option<f64> {
+    let mut v: Vec<f64> = r
+        .by_threads
+        .iter()
+        .filter(|x| x.threads == threads)
+        .filter_map(|x| match name {
+            None => Some(x.run_s),
+            Some(n) => x.stages.iter().find(|(m, _)| m == n).map(|s| s.1),
+        })
+        .collect();
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let m = v.len() / 2;
+    Some(if v.len() % 2 == 1 {
+        v[m]
+    } else {
+        (v[m - 1] + v[m]) / 2.0
+    })
+}
+
+/// Per-stage seconds side by side per thread count (medians over the repetitions), and the
+/// speedup of the largest count over the smallest, per size; empty without thread runs.
+pub fn threads_table(rows: &[ScaleRow]) -> String {
+    let counts = thread_counts(rows);
+    let rows: Vec<&ScaleRow> = rows.iter().filter(|r| !r.by_threads.is_empty()).collect();
+    if counts.is_empty() || rows.is_empty() {
+        return String::new();
+    }
+    let mut names: Vec<&String> = Vec::new();
+    for (n, _) in rows
+        .iter()
+        .flat_map(|r| r.by_threads.iter().flat_map(|x| x.stages.iter()))
+    {
+        if !names.contains(&n) {
+            names.push(n);
+        }
+    }
+    let (lo, hi) = (counts[0], counts[counts.len() - 1]);
+    let mut s = format!(
+        "\nStage seconds by rayon thread count (RAYON_NUM_THREADS, fresh processes, interleaved; median of {} run(s) each); speedup = {lo} thread(s) / {hi} thread(s):\n\n| stage |",
+        rows[0].by_threads.iter().filter(|x| x.threads == lo).count()
+    );
+    for r in &rows {
+        for t in &counts {
+            s.push_str(&format!(" {} @{t} |", r.triangles));
+        }
+        if counts.len() > 1 {
+            s.push_str(&format!(" {} speedup |", r.triangles));
+        }
+    }
+    s.push_str("\n|---|");
+    for _ in &rows {
+        for _ in &counts {
+            s.push_str("---:|");
+        }
+        if counts.len() > 1 {
+            s.push_str("---:|");
+        }
+    }
+    s.push('\n');
+    let line = |s: &mut String, label: &str, name: Option<&str>| {
+        s.push_str(&format!("| {label} |"));
+        for r in &rows {
+            for &t in &counts {
+                s.push_str(&thread_median(r, t, name).map_or(" - |".into(), |v| format!(" {v:.3} |")));
+            }
+            if counts.len() > 1 {
+                s.push_str(&match (thread_median(r, lo, name), thread_median(r, hi, name)) {
+                    (Some(a), Some(b)) if b > 0.0 => format!(" {:.2} |", a / b),
+                    _ => " - |".into(),
+                });
+            }
+        }
+        s.push('\n');
+    };
+    for n in &names {
+        line(&mut s, n, Some(n));
+    }
+    line(&mut s, "run (wall, spawn to exit)", None);
     s
 }
 
@@ -598,6 +775,56 @@ mod tests {
     }
 
     #[test]
+    fn thread_table_takes_medians_and_divides_the_smallest_count_by_the_largest() {
+        let tr = |threads: usize, run_s: f64, split: f64| ThreadRun {
+            threads,
+            run_s,
+            run_cpu_s: run_s,
+            run_peak_mib: 1.0,
+            stages: vec![("splitting".to_string(), split)],
+        };
+        let row = ScaleRow {
+            nx: 2,
+            ny: 2,
+            tess: 8,
+            triangles: 500,
+            run_s: 1.0,
+            run_peak_mib: 1.0,
+            run_cpu_s: 1.0,
+            tetra_cpu_s: 0.1,
+            tetra_s: 0.1,
+            tetra_peak_mib: 1.0,
+            ratio: 10.0,
+            stages: Vec::new(),
+            final_cells: None,
+            memory: Vec::new(),
+            tetrahedra: None,
+            active_cells: None,
+            // Medians at 1 thread: run 4, splitting 3; at 2 threads: run 2, splitting 1.
+            by_threads: vec![
+                tr(1, 4.0, 3.0),
+                tr(2, 2.0, 1.0),
+                tr(1, 5.0, 3.5),
+                tr(2, 2.5, 1.5),
+                tr(1, 3.0, 2.0),
+                tr(2, 1.0, 0.5),
+            ],
+        };
+        let t = threads_table(std::slice::from_ref(&row));
+        assert!(t.contains("| stage | 500 @1 | 500 @2 | 500 speedup |"), "{t}");
+        assert!(t.contains("| splitting | 3.000 | 1.000 | 3.00 |"), "{t}");
+        assert!(
+            t.contains("| run (wall, spawn to exit) | 4.000 | 2.000 | 2.00 |"),
+            "{t}"
+        );
+        let plain = ScaleRow {
+            by_threads: Vec::new(),
+            ..row
+        };
+        assert_eq!(threads_table(&[plain]), "");
+    }
+
+    #[test]
     fn per_size_tables_have_one_column_per_size_and_a_dash_for_missing_values() {
         let row = |triangles: usize, stages: &[(&str, f64)], memory: &[(&str, f64)]| ScaleRow {
             nx: 2,
@@ -616,6 +843,7 @@ mod tests {
             memory: memory.iter().map(|(n, v)| (n.to_string(), *v)).collect(),
             tetrahedra: Some(1024),
             active_cells: None,
+            by_threads: Vec::new(),
         };
         let rep = ScaleReport {
             rows: vec![
