@@ -50,6 +50,34 @@ fn main() {
         cx.stats.unplaced_fragments,
         cx.stats.neighbour_cuts
     );
+    // DIAG_POLY=P DIAG_CELLS=a,b: those cells' vertex distances to polygon P's plane and
+    // their faces' patches (neighbours, occluder sources).
+    if let (Ok(pp), Ok(cs)) = (std::env::var("DIAG_POLY"), std::env::var("DIAG_CELLS")) {
+        let pl = cx.polygon_planes[pp.parse::<usize>().unwrap()].normalized();
+        for c in cs.split(',').map(|x| x.parse::<usize>().unwrap()) {
+            let cell = &cx.cells[c];
+            println!(
+                "cell {c} alive {} tet {:?} vol {:.3e}",
+                cell.alive,
+                cell.tet,
+                cell.poly.volume()
+            );
+            for (fi, f) in cell.poly.faces.iter().enumerate() {
+                let t = cell.poly.tags[fi] as usize;
+                let pa = &cx.patches[t];
+                println!(
+                    "  face {fi} patch {t} cells {:?} area {:.3e} occ {:?} d {:?}",
+                    pa.cells,
+                    f.area(),
+                    pa.occluders.iter().map(|o| o.source.0).collect::<Vec<_>>(),
+                    f.verts
+                        .iter()
+                        .map(|v| format!("{:.2e}", pl.eval(v)))
+                        .collect::<Vec<_>>()
+                );
+            }
+        }
+    }
     let e = cx.validate(&m);
     println!("validate: {:?}", e.as_ref().err().map(|e| e.to_string()));
     let Err(ComplexError::Crossing { polygon, cell, .. }) = e else {

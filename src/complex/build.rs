@@ -715,9 +715,26 @@ impl CellComplex {
         let mut attached = false;
         let cell = &self.cells[c.idx()];
         let mut adds: Vec<(usize, Occluder)> = Vec::new();
+        // A cell thinner than the sliver width across the polygon's plane (every vertex
+        // within it: the wedge between the planes of two triangles of one noisy quad, which
+        // no cut can split further) holds the polygon *inside* it, not on a face. Such a
+        // cell is a membrane, open where its two sides' open faces overlap, so its faces
+        // nearly parallel to the polygon take the polygon's coverage too, or the wall
+        // leaks through it (issue 16, noise 1e-5 of the diagonal).
+        let sliver = self.tol.sliver_width();
+        let mut thin: Option<bool> = None;
         for (fi, f) in cell.poly.faces.iter().enumerate() {
             if !f.verts.iter().all(|v| un.eval(v).abs() <= eps) {
-                continue;
+                if !near || !f.verts.iter().all(|v| un.eval(v).abs() <= sliver) {
+                    continue;
+                }
+                let is_thin =
+                    *thin.get_or_insert_with(|| cell.poly.vertices().iter().all(|v| un.eval(v).abs() <= sliver));
+                let n = f.normal();
+                let cos = (n[0] * un.n[0] + n[1] * un.n[1] + n[2] * un.n[2]).abs();
+                if !is_thin || cos < THIN_ATTACH_COS {
+                    continue;
+                }
             }
             let Some(ov) = f.intersect_coplanar(polygon, &self.tol) else {
                 continue;
@@ -1139,6 +1156,11 @@ impl CellComplex {
 }
 
 type P3Key = [u64; 3];
+
+/// Faces of a cell thinner than the sliver width across a polygon's plane take the
+/// polygon's coverage only when their normal is this close to the plane's (|cos| of the
+/// angle; ~8°): the cell's two large sides, not its narrow rims.
+const THIN_ATTACH_COS: f64 = 0.99;
 
 /// Most searches of one polygon's placement and of the sealing pass: refused splits are
 /// retried after later splits by the same plane (see `place_polygon`), a bounded number
