@@ -73,3 +73,39 @@ fn corpus_readers() {
         }
     }
 }
+
+/// The finds in `open/` and `known/` that still fail are refused by `run`: its checked
+/// build (`pipeline::build_cells`, the cheap checks `run` applies before decimating) must
+/// give a valid complex or `InvalidComplex` naming the violated invariant, never a
+/// complex the full validation rejects, so `run` never exits 0 on them.
+#[test]
+fn unfixed_finds_are_refused_by_run() {
+    use portalfind::pipeline::{CellSettings, PipelineError, Subdivision, build_cells};
+    let mut n = 0;
+    for sub_dir in ["open", "known"] {
+        for p in files(Target::Pipeline, sub_dir) {
+            let m = match portalfind::model::load_model(&p) {
+                Ok(m) => m,
+                Err(_) => continue, // refused at load: fine
+            };
+            for sub in Subdivision::ALL {
+                match build_cells(&m, &p, &CellSettings::of(sub), &mut |_| {}) {
+                    Ok(cells) => {
+                        assert!(
+                            cells.cx.validate(&m).is_ok(),
+                            "{sub} {}: run's checks passed a complex the validation rejects",
+                            p.display()
+                        );
+                    }
+                    Err(PipelineError::InvalidComplex { source, .. }) => {
+                        eprintln!("{sub} {}: refused: {source}", p.display());
+                        assert!(!source.to_string().is_empty());
+                        n += 1;
+                    }
+                    Err(e) => panic!("{sub} {}: unexpected error {e}", p.display()),
+                }
+            }
+        }
+    }
+    eprintln!("{n} refusals");
+}

@@ -330,11 +330,76 @@ impl CellComplex {
             pl.mark(c, epoch);
             pl.queue.push_back(c);
         }
+        // Refused splits are retried once the search is done if a split by this plane
+        // succeeded after them: a split refused because a neighbour's subdivided face
+        // would not be convex often succeeds once that neighbour has been cut by the same
+        // plane (the shared face is then split by the same crossings), and the cells of a
+        // tetrahedron fan around the plane are visited in search order, not in the order
+        // that works. (cell, successful splits when it was refused, counted unplaced)
+        let mut refused: Vec<(CellId, usize, bool)> = Vec::new();
+        let mut splits = 0usize;
+        let mut rounds = 0usize;
+        loop {
+            self.place_search(
+                tet,
+                pl,
+                pid,
+                &polygon,
+                &plane,
+                &ids,
+                flipped,
+                (lo, hi, slack),
+                epoch,
+                &mut refused,
+                &mut splits,
+            );
+            rounds += 1;
+            if rounds > MAX_RETRY_ROUNDS {
+                break;
+            }
+            let retry: Vec<(CellId, usize, bool)> = refused
+                .iter()
+                .copied()
+                .filter(|&(c, at, _)| at < splits && self.cells[c.idx()].alive)
+                .collect();
+            if retry.is_empty() {
+                break;
+            }
+            refused.retain(|&(c, at, _)| !(at < splits && self.cells[c.idx()].alive));
+            for (c, _, unplaced) in retry {
+                if unplaced {
+                    self.stats.unplaced_fragments -= 1;
+                }
+                pl.queue.push_back(c);
+            }
+        }
+        self.stats.splits_refused += refused.iter().filter(|r| self.cells[r.0.idx()].alive).count();
+    }
+
+    /// The breadth-first search of [`place_polygon`](Self::place_polygon) from the cells
+    /// in `pl.queue`; refused significant splits are appended to `refused`, successful ones
+    /// counted in `splits`.
+    #[allow(clippy::too_many_arguments)]
+    fn place_search(
+        &mut self,
+        tet: &Tetrahedralization,
+        pl: &mut Placer,
+        pid: PolygonId,
+        polygon: &ConvexPolygon,
+        plane: &Plane,
+        ids: &[VertexId; 3],
+        flipped: bool,
+        (lo, hi, slack): ([f64; 3], [f64; 3], f64),
+        epoch: u32,
+        refused: &mut Vec<(CellId, usize, bool)>,
+        splits: &mut usize,
+    ) {
+        let (polygon, plane, ids) = (polygon, *plane, *ids);
         while let Some(c) = pl.queue.pop_front() {
             if !self.cells[c.idx()].alive {
                 continue;
             }
-            if !self.touches(c, &polygon, &plane, lo, hi, slack) {
+            if !self.touches(c, polygon, &plane, lo, hi, slack) {
                 continue;
             }
             // Classify: exactly for unsplit tetrahedra, with tolerance otherwise.
@@ -342,18 +407,15 @@ impl CellComplex {
             let mut next: Vec<CellId> = Vec::new();
             match class {
                 Classification::Straddles => {
-                    let clip = clip_to_cell(&polygon, &self.cells[c.idx()].poly, &self.tol);
+                    let clip = clip_to_cell(polygon, &self.cells[c.idx()].poly, &self.tol);
                     let significant = clip.as_ref().is_some_and(|q| q.area() >= self.tol.area_abs());
                     let split = match clip {
-                        Some(clip) if significant => {
-                            let r = self.split_cell(c, &plane, clip, pid);
-                            if r.is_none() {
-                                self.stats.splits_refused += 1;
-                            }
-                            r
-                        }
+                        Some(clip) if significant => self.split_cell(c, &plane, clip, pid),
                         _ => None,
                     };
+                    if split.is_some() {
+                        *splits += 1;
+                    }
                     match split {
                         Some((f, b)) => {
                             // Neighbours cut together with c: their pieces are new cells
@@ -372,8 +434,8 @@ impl CellComplex {
                             // floor's tetrahedron face). The pieces are marked, so they are
                             // not visited again: attach here, or that face stays open under
                             // the polygon (a leak through the wall).
-                            self.attach_on_faces(f, &polygon, &plane, pid, true);
-                            self.attach_on_faces(b, &polygon, &plane, pid, true);
+                            self.attach_on_faces(f, polygon, &plane, pid, true);
+                            self.attach_on_faces(b, polygon, &plane, pid, true);
                             pl.on_split(c, f, b, &self.cells);
                             next.push(f);
                             next.push(b);
@@ -386,24 +448,27 @@ impl CellComplex {
                             pl.defer(self.cells[c.idx()].tet.expect("a tetrahedron's cell"), pid);
                             // Within tolerance of the cell's boundary: the polygon lies on a
                             // face (or grazes the cell); attach it there.
-                            let attached = self.attach_on_faces(c, &polygon, &plane, pid, true);
+                            let attached = self.attach_on_faces(c, polygon, &plane, pid, true);
                             // A significant fragment on the front side that found no face.
-                            if significant
+                            let unplaced = significant
                                 && !attached
-                                && self.cells[c.idx()].poly.classify(&plane, &self.tol) != Classification::Back
-                            {
+                                && self.cells[c.idx()].poly.classify(&plane, &self.tol) != Classification::Back;
+                            if unplaced {
                                 self.stats.unplaced_fragments += 1;
+                            }
+                            if significant {
+                                refused.push((c, *splits, unplaced));
                             }
                             next.push(c);
                         }
                     }
                 }
                 Classification::Front | Classification::Coplanar => {
-                    self.attach_on_faces(c, &polygon, &plane, pid, true);
+                    self.attach_on_faces(c, polygon, &plane, pid, true);
                     next.push(c);
                 }
                 Classification::Back => {
-                    self.attach_on_faces(c, &polygon, &plane, pid, true);
+                    self.attach_on_faces(c, polygon, &plane, pid, true);
                     next.push(c);
                 }
             }
@@ -430,11 +495,39 @@ impl CellComplex {
     /// plane of those polygons when their union covers the section up to cracks (pieces
     /// the portal graph would discard as slivers), with the
     /// [`Tolerances::sealing`](crate::Tolerances::sealing) thresholds.
+    ///
+    /// A sealing split refused only because a neighbour's subdivided face would not be
+    /// convex is retried after the pass when other sealing splits happened since (the
+    /// neighbour may since have been cut by the same plane), up to `MAX_RETRY_ROUNDS`
+    /// passes.
     fn seal_cracks(&mut self, model: &Model, pl: &mut Placer, supports: &[Support], of: &[(usize, bool)]) {
         let mut tets: Vec<TetId> = pl.deferred.keys().copied().collect();
         tets.sort_unstable();
-        for t in tets {
-            let mut polys = pl.deferred.remove(&t).unwrap_or_default();
+        let deferred = std::mem::take(&mut pl.deferred);
+        for _ in 0..MAX_RETRY_ROUNDS {
+            let before = self.stats.cells_sealed;
+            let refused = self.seal_tets(model, pl, supports, of, &tets, &deferred);
+            if refused.is_empty() || self.stats.cells_sealed == before {
+                break;
+            }
+            tets = refused;
+        }
+    }
+
+    /// One sealing pass over the tetrahedra `tets`; returns those where a sealing split
+    /// was refused by [`try_commit_split`](Self::try_commit_split).
+    fn seal_tets(
+        &mut self,
+        model: &Model,
+        pl: &mut Placer,
+        supports: &[Support],
+        of: &[(usize, bool)],
+        tets: &[TetId],
+        deferred: &HashMap<TetId, Vec<PolygonId>>,
+    ) -> Vec<TetId> {
+        let mut refused_in = Vec::new();
+        for &t in tets {
+            let mut polys = deferred.get(&t).cloned().unwrap_or_default();
             polys.sort_unstable();
             polys.dedup();
             // Group by support plane (sorted, so deterministic).
@@ -454,7 +547,11 @@ impl CellComplex {
                     continue;
                 }
                 for (s, ps) in &groups {
-                    if let Some((f, b)) = self.seal_split(model, c, &supports[*s], ps, of) {
+                    let r = self.seal_split(model, c, &supports[*s], ps, of);
+                    if r == Err(true) && refused_in.last() != Some(&t) {
+                        refused_in.push(t);
+                    }
+                    if let Ok((f, b)) = r {
                         for (o, fo, bo) in std::mem::take(&mut self.neighbour_log) {
                             pl.on_split(o, fo, bo, &self.cells);
                             if self.cells[o.idx()].tet == Some(t) {
@@ -470,10 +567,12 @@ impl CellComplex {
                 }
             }
         }
+        refused_in
     }
 
     /// Splits `c` by the support plane when the group's polygons `ps` cover its section
-    /// (at least half of it, the rest only cracks). Returns (front, back).
+    /// (at least half of it, the rest only cracks). Returns (front, back), else whether
+    /// the split was refused only by [`try_commit_split`](Self::try_commit_split).
     fn seal_split(
         &mut self,
         model: &Model,
@@ -481,7 +580,20 @@ impl CellComplex {
         support: &Support,
         ps: &[PolygonId],
         of: &[(usize, bool)],
-    ) -> Option<(CellId, CellId)> {
+    ) -> Result<(CellId, CellId), bool> {
+        self.seal_split_inner(model, c, support, ps, of)
+            .ok_or(false)?
+            .ok_or(true)
+    }
+
+    fn seal_split_inner(
+        &mut self,
+        model: &Model,
+        c: CellId,
+        support: &Support,
+        ps: &[PolygonId],
+        of: &[(usize, bool)],
+    ) -> Option<Option<(CellId, CellId)>> {
         let plane = support.plane;
         let cell = &self.cells[c.idx()].poly;
         if cell.classify(&plane, &self.tol) != Classification::Straddles {
@@ -530,8 +642,11 @@ impl CellComplex {
                 })
             })
             .collect();
-        self.stats.cells_sealed += 1;
-        self.try_commit_split(c, &plane, *s, occluders)
+        let r = self.try_commit_split(c, &plane, *s, occluders);
+        if r.is_some() {
+            self.stats.cells_sealed += 1;
+        }
+        Some(r)
     }
 
     /// Distance within which a face counts as lying on a support plane: the projection
@@ -622,9 +737,26 @@ impl CellComplex {
         let mut attached = false;
         let cell = &self.cells[c.idx()];
         let mut adds: Vec<(usize, Occluder)> = Vec::new();
+        // A cell thinner than the sliver width across the polygon's plane (every vertex
+        // within it: the wedge between the planes of two triangles of one noisy quad, which
+        // no cut can split further) holds the polygon *inside* it, not on a face. Such a
+        // cell is a membrane, open where its two sides' open faces overlap, so its faces
+        // nearly parallel to the polygon take the polygon's coverage too, or the wall
+        // leaks through it (issue 16, noise 1e-5 of the diagonal).
+        let sliver = self.tol.sliver_width();
+        let mut thin: Option<bool> = None;
         for (fi, f) in cell.poly.faces.iter().enumerate() {
             if !f.verts.iter().all(|v| un.eval(v).abs() <= eps) {
-                continue;
+                if !near || !f.verts.iter().all(|v| un.eval(v).abs() <= sliver) {
+                    continue;
+                }
+                let is_thin =
+                    *thin.get_or_insert_with(|| cell.poly.vertices().iter().all(|v| un.eval(v).abs() <= sliver));
+                let n = f.normal();
+                let cos = (n[0] * un.n[0] + n[1] * un.n[1] + n[2] * un.n[2]).abs();
+                if !is_thin || cos < THIN_ATTACH_COS {
+                    continue;
+                }
             }
             let Some(ov) = f.intersect_coplanar(polygon, &self.tol) else {
                 continue;
@@ -1046,6 +1178,16 @@ impl CellComplex {
 }
 
 type P3Key = [u64; 3];
+
+/// Faces of a cell thinner than the sliver width across a polygon's plane take the
+/// polygon's coverage only when their normal is this close to the plane's (|cos| of the
+/// angle; ~8°): the cell's two large sides, not its narrow rims.
+const THIN_ATTACH_COS: f64 = 0.99;
+
+/// Most searches of one polygon's placement and of the sealing pass: refused splits are
+/// retried after later splits by the same plane (see `place_polygon`), a bounded number
+/// of times.
+const MAX_RETRY_ROUNDS: usize = 8;
 
 /// Most cells one plane splits together in [`CellComplex::joint_split`] (the split cell
 /// and the neighbours whose subdivided faces would not be convex), so a cascade is bounded.
