@@ -1184,6 +1184,7 @@ mod tests {
                         };
                         let run = |lazy, grown| Decimation::run_with_mode(cx, &settings, Mode { lazy, grown });
                         let what = format!("{name}/{h}/{e}/{stop}");
+                        let t = std::time::Instant::now();
                         // (1) Identical when both compute stale sides from scratch.
                         let (lazy, eager) = (run(true, false), run(false, false));
                         assert!(lazy.steps.len() > 20, "{what}: {} steps", lazy.steps.len());
@@ -1216,6 +1217,7 @@ mod tests {
                         assert_eq!(lazy.partition, eager.partition, "{what}");
                         lazy_weights += lazy.stats.weights_computed;
                         eager_weights += eager.stats.weights_computed;
+                        eprintln!("{what}: {:.2} s", t.elapsed().as_secs_f64());
                     }
                 }
             }

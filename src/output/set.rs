@@ -613,12 +613,16 @@ fn stage(list: &[Box<dyn Exporter>], ctx: &ExportContext<'_>, opts: &SetOptions<
     let mut order = Vec::new();
     let on = |i: &usize| chosen(list[*i].as_ref(), opts.export);
     // The exporters write distinct files into the staging directory and read the run
-    // only, so those that are not `last` run in parallel (rayon); the results are taken in
-    // the sequence order (file order, and the first error in that order, as one thread
-    // would); then the `last` ones (result.json), in order.
+    // only, so all of them run in parallel (rayon), the `last` ones (result.json, the
+    // largest) started first; the results are taken in the sequence order — the others in
+    // the list's order, then the `last` ones — so file order, the first error in that
+    // order and the swap order are those of one thread writing the `last` ones after the
+    // others. (Staged files are invisible until the swap, and a failed stage is removed
+    // whole, so result.json still exists only beside a complete set.)
     let first: Vec<usize> = (0..list.len()).filter(|&i| !list[i].last()).filter(on).collect();
     let last: Vec<usize> = (0..list.len()).filter(|&i| list[i].last()).filter(on).collect();
-    let parallel: Vec<Result<Vec<PathBuf>, OutputError>> = first
+    let started: Vec<usize> = last.iter().chain(&first).copied().collect();
+    let done: Vec<Result<Vec<PathBuf>, OutputError>> = started
         .par_iter()
         .with_max_len(1)
         .map(|&i| {
@@ -626,16 +630,13 @@ fn stage(list: &[Box<dyn Exporter>], ctx: &ExportContext<'_>, opts: &SetOptions<
             list[i].write(ctx)
         })
         .collect();
-    let results = first.iter().copied().zip(parallel).map(|(i, r)| (i, Some(r)));
-    let results = results.chain(last.iter().map(|&i| (i, None)));
-    for (i, r) in results {
-        let paths = match r {
-            Some(r) => r?,
-            None => {
-                interrupted()?;
-                list[i].write(ctx)?
-            }
-        };
+    let mut by_exporter: Vec<Option<Result<Vec<PathBuf>, OutputError>>> = (0..list.len()).map(|_| None).collect();
+    for (&i, r) in started.iter().zip(done) {
+        by_exporter[i] = Some(r);
+    }
+    for i in first.iter().chain(&last).copied() {
+        let Some(r) = by_exporter[i].take() else { continue };
+        let paths = r?;
         order.extend(
             paths
                 .iter()
