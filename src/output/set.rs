@@ -635,7 +635,8 @@ fn stage(list: &[Box<dyn Exporter>], ctx: &ExportContext<'_>, opts: &SetOptions<
     // Each task hashes its own files right after writing them (one thread per file, as
     // before), so the largest file's hash no longer waits for the others.
     type Hashed = Vec<Result<(String, FileEntry), OutputError>>;
-    let done: Vec<Result<(Vec<PathBuf>, Hashed), OutputError>> = started
+    type Done = Result<(Vec<PathBuf>, Hashed), OutputError>;
+    let done: Vec<Done> = started
         .par_iter()
         .with_max_len(1)
         .map(|&i| {
@@ -645,8 +646,7 @@ fn stage(list: &[Box<dyn Exporter>], ctx: &ExportContext<'_>, opts: &SetOptions<
             Ok((paths, hashed))
         })
         .collect();
-    let mut by_exporter: Vec<Option<Result<(Vec<PathBuf>, Hashed), OutputError>>> =
-        (0..list.len()).map(|_| None).collect();
+    let mut by_exporter: Vec<Option<Done>> = (0..list.len()).map(|_| None).collect();
     for (&i, r) in started.iter().zip(done) {
         by_exporter[i] = Some(r);
     }
