@@ -918,7 +918,7 @@ impl<'a, E: AreaEstimator> Engine<'a, E> {
                     _ => StopReason::Exhausted,
                 };
             };
-            if self.is_stale(p) {
+            if self.is_stale(p) && !skip_front_reweigh() {
                 // A lower bound at the front: weigh it and queue it again (if it is
                 // still the lowest, the next peek returns it, exact).
                 self.weigh(p, false);
@@ -950,6 +950,24 @@ impl<'a, E: AreaEstimator> Engine<'a, E> {
             stats: self.stats,
         }
     }
+}
+
+#[cfg(test)]
+thread_local! {
+    /// Tests break lazy re-weighing on purpose (a stale pair at the front of the queue is
+    /// collapsed with its lower-bound key instead of being re-weighed), to show that the
+    /// lazy identity test fails then.
+    static SKIP_FRONT_REWEIGH: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+#[cfg(test)]
+fn skip_front_reweigh() -> bool {
+    SKIP_FRONT_REWEIGH.with(|c| c.get())
+}
+
+#[cfg(not(test))]
+fn skip_front_reweigh() -> bool {
+    false
 }
 
 fn count_regions(n: usize, pairs: &[Pair]) -> usize {
@@ -1147,21 +1165,11 @@ mod tests {
         crate::pipeline::complex_of_unchecked(&m).expect("complex")
     }
 
-    /// Lazy re-weighing (a stale pair re-weighed only when it reaches the front of the
-    /// queue) makes the decisions of eager re-weighing (every stale pair re-weighed at
-    /// every merge), see "Lazy re-weighing" in the module docs: on thesis models and
-    /// generated scenes, for the three thesis heuristics and the three estimators, at the
-    /// default stop and to the end.
-    /// (1) With every stale side computed from scratch in both, the runs are identical:
-    /// every step (pair, weight bit for bit, cells left, portal area; the areas to 1e-12,
-    /// as a refreshed area is the maximum of its evaluations, which may differ in the last
-    /// bit between times), the stop reason and the partition. (2) The default (lazy, incremental over several merges) against
-    /// eager with increments (the engine before lazy re-weighing): as many steps, weights
-    /// equal to 1e-9 relative, the same partition. And lazy computes fewer weights.
-    #[test]
-    fn lazy_reweighing_makes_the_eager_decisions() {
+    /// The lazy identity test's models: four_rooms, a 2×2 room grid and the thesis caverns
+    /// (curved, non-convex unions).
+    fn lazy_cases() -> Vec<(&'static str, CellComplex)> {
         let (grid, _) = crate::generate::scenes::room_grid(2, 2, 2);
-        let cases = vec![
+        vec![
             (
                 "four_rooms (generated)",
                 soup("four_rooms", crate::generate::four_rooms::four_rooms()),
@@ -1170,9 +1178,72 @@ mod tests {
             // The larger thesis models (tessellated, distorted) cost minutes here in the
             // eager union order; caverns keeps curved, non-convex unions in the test.
             ("caverns", thesis("caverns")),
-        ];
+        ]
+    }
+
+    /// One case of the lazy identity test: `Err` names the first difference. With
+    /// `scratch`, part (1): lazy and eager with every stale side from scratch are identical
+    /// (pairs, weights bit for bit, cells left, portal areas; projected areas to 1e-12, as a
+    /// refreshed area is the maximum of its evaluations, which may differ in the last bit
+    /// between times), and so are the stop and the partition. Always part (2): the default
+    /// (lazy, incremental over several merges) against eager with increments: as many
+    /// steps, weights to 1e-9 relative, the same partition. Returns the weights computed
+    /// by the default and by eager with increments.
+    fn lazy_equals_eager(cx: &CellComplex, settings: &Settings, scratch: bool) -> Result<(u64, u64), String> {
+        let run = |lazy, grown| Decimation::run_with_mode(cx, settings, Mode { lazy, grown });
+        if scratch {
+            let (lazy, eager) = (run(true, false), run(false, false));
+            if lazy.steps.len() <= 20 {
+                return Err(format!("only {} steps", lazy.steps.len()));
+            }
+            if lazy.steps.len() != eager.steps.len() {
+                return Err(format!("(1) steps {} vs {}", lazy.steps.len(), eager.steps.len()));
+            }
+            for (k, (a, b)) in lazy.steps.iter().zip(&eager.steps).enumerate() {
+                let close = (0..2).all(|i| (a.projected[i] - b.projected[i]).abs() <= 1e-12 * b.projected[i]);
+                if (a.a, a.b, a.weight, a.cells_remaining, a.portal_area)
+                    != (b.a, b.b, b.weight, b.cells_remaining, b.portal_area)
+                    || !close
+                {
+                    return Err(format!("(1) step {k}: {a:?} vs {b:?}"));
+                }
+            }
+            if lazy.stop != eager.stop || lazy.partition != eager.partition {
+                return Err("(1) stop or partition".into());
+            }
+        }
+        let (lazy, eager) = (Decimation::run(cx, settings), run(false, true));
+        if lazy.steps.len() != eager.steps.len() {
+            return Err(format!("(2) steps {} vs {}", lazy.steps.len(), eager.steps.len()));
+        }
+        for (k, (a, b)) in lazy.steps.iter().zip(&eager.steps).enumerate() {
+            if (a.weight - b.weight).abs() > 1e-9 * b.weight {
+                return Err(format!("(2) step {k}: weight {} vs {}", a.weight, b.weight));
+            }
+        }
+        if lazy.partition != eager.partition {
+            return Err("(2) partition".into());
+        }
+        Ok((lazy.stats.weights_computed, eager.stats.weights_computed))
+    }
+
+    /// Lazy re-weighing (a stale pair re-weighed only when it reaches the front of the
+    /// queue) makes the decisions of eager re-weighing (every stale pair re-weighed at
+    /// every merge), see "Lazy re-weighing" in the module docs ([`lazy_equals_eager`]): on
+    /// [`lazy_cases`], for the three thesis heuristics and the three estimators, at the
+    /// default stop and to the end. Part (1), the exact comparison with every stale side
+    /// from scratch, is estimator-generic engine logic. `union`'s eager runs cost most of
+    /// this test on the grid and caverns (minutes), so there `union` runs part (2) only,
+    /// with `aspect` at the default stop (its growth over several merges; the weights it
+    /// records to the end on caverns are checked against from-scratch areas by
+    /// [`lazy_steps_record_exact_weights`], its evaluation by `estimator::union`'s test);
+    /// every other case runs both parts. And lazy computes fewer weights.
+    /// [`lazy_identity_test_fails_when_a_stale_pair_is_not_reweighed`] shows the
+    /// comparison fails when the lazy path is broken.
+    #[test]
+    fn lazy_reweighing_makes_the_eager_decisions() {
         let (mut lazy_weights, mut eager_weights) = (0u64, 0u64);
-        for (name, cx) in &cases {
+        for (name, cx) in &lazy_cases() {
             for h in [HeuristicKind::Aspect, HeuristicKind::Refined, HeuristicKind::Volume] {
                 for e in Estimator::ALL {
                     for stop in [h.default_stop(), StopRule::None] {
@@ -1182,46 +1253,58 @@ mod tests {
                             stop,
                             ..Settings::default()
                         };
-                        let run = |lazy, grown| Decimation::run_with_mode(cx, &settings, Mode { lazy, grown });
-                        let what = format!("{name}/{h}/{e}/{stop}");
-                        // (1) Identical when both compute stale sides from scratch.
-                        let (lazy, eager) = (run(true, false), run(false, false));
-                        assert!(lazy.steps.len() > 20, "{what}: {} steps", lazy.steps.len());
-                        assert_eq!(lazy.steps.len(), eager.steps.len(), "{what}");
-                        for (k, (a, b)) in lazy.steps.iter().zip(&eager.steps).enumerate() {
-                            // Areas: the maximum of evaluations at different times, which
-                            // may differ in the last bit (see the module docs).
-                            let close =
-                                (0..2).all(|i| (a.projected[i] - b.projected[i]).abs() <= 1e-12 * b.projected[i]);
-                            assert!(
-                                (a.a, a.b, a.weight, a.cells_remaining, a.portal_area)
-                                    == (b.a, b.b, b.weight, b.cells_remaining, b.portal_area)
-                                    && close,
-                                "{what} step {k}: {a:?} vs {b:?}"
-                            );
+                        // `union`'s eager runs (from scratch or grown at every merge) are
+                        // most of this test's cost on the grid and caverns: there it runs
+                        // part (2) with `aspect` at the default stop only.
+                        let small = name.starts_with("four_rooms");
+                        if e == Estimator::Union && !small && (h != HeuristicKind::Aspect || stop == StopRule::None) {
+                            continue;
                         }
-                        assert_eq!(lazy.stop, eager.stop, "{what}");
-                        assert_eq!(lazy.partition, eager.partition, "{what}");
-                        // (2) The default against eager with increments.
-                        let (lazy, eager) = (Decimation::run(cx, &settings), run(false, true));
-                        assert_eq!(lazy.steps.len(), eager.steps.len(), "{what}");
-                        for (k, (a, b)) in lazy.steps.iter().zip(&eager.steps).enumerate() {
-                            assert!(
-                                (a.weight - b.weight).abs() <= 1e-9 * b.weight,
-                                "{what} step {k}: weight {} vs {}",
-                                a.weight,
-                                b.weight
-                            );
-                        }
-                        assert_eq!(lazy.partition, eager.partition, "{what}");
-                        lazy_weights += lazy.stats.weights_computed;
-                        eager_weights += eager.stats.weights_computed;
+                        let t = std::time::Instant::now();
+                        let scratch = e != Estimator::Union || small;
+                        let (l, g) = lazy_equals_eager(cx, &settings, scratch)
+                            .unwrap_or_else(|err| panic!("{name}/{h}/{e}/{stop}: {err}"));
+                        lazy_weights += l;
+                        eager_weights += g;
+                        eprintln!("{name}/{h}/{e}/{stop}: {:.2} s", t.elapsed().as_secs_f64());
                     }
                 }
             }
         }
         eprintln!("weights computed: lazy {lazy_weights}, eager {eager_weights}");
         assert!(lazy_weights < eager_weights);
+    }
+
+    /// The lazy identity test can fail: with the re-weigh of a stale pair at the front of
+    /// the queue switched off (it is collapsed with its lower-bound key), the comparison
+    /// finds a difference in every cheap case (`bbox` and `hull`, every heuristic and stop,
+    /// on four_rooms; on the 2×2 grid too, when this was written, but that costs more).
+    #[test]
+    fn lazy_identity_test_fails_when_a_stale_pair_is_not_reweighed() {
+        let cases = lazy_cases();
+        let (mut failed, mut tried) = (Vec::new(), 0);
+        SKIP_FRONT_REWEIGH.with(|c| c.set(true));
+        for (name, cx) in cases.iter().take(1) {
+            for h in [HeuristicKind::Aspect, HeuristicKind::Refined, HeuristicKind::Volume] {
+                for e in [Estimator::Bbox, Estimator::Hull] {
+                    for stop in [h.default_stop(), StopRule::None] {
+                        let settings = Settings {
+                            heuristic: h,
+                            estimator: e,
+                            stop,
+                            ..Settings::default()
+                        };
+                        tried += 1;
+                        if let Err(err) = lazy_equals_eager(cx, &settings, true) {
+                            failed.push(format!("{name}/{h}/{e}/{stop}: {err}"));
+                        }
+                    }
+                }
+            }
+        }
+        SKIP_FRONT_REWEIGH.with(|c| c.set(false));
+        eprintln!("{} of {tried} broken cases detected: {failed:#?}", failed.len());
+        assert_eq!(failed.len(), tried, "the broken lazy path went unnoticed in some cases");
     }
 
     /// A lazy run records exact weights, not bounds: at every 37th collapse of caverns to

@@ -6,11 +6,25 @@
 //! nodes whose box is at least as far as the nearest triangle found so far, so its answer
 //! is the minimum of the point–triangle distances (Ericson 2005, 5.1.5) over *all*
 //! triangles, whatever the tree's shape: the same inputs give the same bits.
+//!
+//! **Warm start.** Queries come in runs of nearby points (the samples of one cell, the
+//! marching along a segment), so each thread remembers the triangle nearest to its last
+//! query ([`HINT`]) and a search starts with that triangle's distance as its best so far:
+//! one of the candidates, so the minimum — the answer — is unchanged, while the descent
+//! prunes from the first node on instead of only after its first leaf.
 
 use crate::base::vec::{dot, sub};
 
 /// Triangles per leaf.
 const LEAF: usize = 4;
+
+thread_local! {
+    /// The index (in its field's `tris`) of the triangle nearest to this thread's last
+    /// query: the warm start of the next one. Only a hint: any value (another field's, out
+    /// of range) gives the same answers, since the answer is the minimum over all
+    /// triangles whatever the search starts with.
+    static HINT: std::cell::Cell<u32> = const { std::cell::Cell::new(u32::MAX) };
+}
 
 type P3 = [f64; 3];
 
@@ -89,6 +103,7 @@ fn closest_on_triangle(p: P3, t: &[P3; 3]) -> P3 {
     add_scaled(add_scaled(a, ab, v), ac, w)
 }
 
+#[inline(always)]
 fn tri_dist2(p: P3, t: &[P3; 3]) -> f64 {
     let q = closest_on_triangle(p, t);
     let d = sub(&p, &q);
@@ -145,15 +160,25 @@ impl ClearanceField {
     /// its distance, or `None` when there is none (or the model is empty). Nodes whose box
     /// is at least as far as the best so far (or the bound) are skipped, so the answer is
     /// the minimum of the point–triangle distances over all triangles, whatever the bound,
-    /// when that minimum is below it.
+    /// when that minimum is below it. The best so far starts at this thread's hint
+    /// triangle ([`HINT`], one of the candidates), and the nearest triangle found becomes
+    /// the next hint.
     fn search(&self, p: P3, bound2: f64) -> Option<f64> {
         if self.nodes.is_empty() {
             return None;
         }
         let mut best = f64::INFINITY;
+        let mut arg = HINT.with(|h| h.get());
+        if let Some(t) = self.tris.get(arg as usize) {
+            let d = tri_dist2(p, t);
+            // A NaN distance (a degenerate triangle) is never the minimum.
+            if d < best {
+                best = d;
+            }
+        }
         // Depth-first with the nearer child popped first: at most one pending sibling per
-        // level, and median splits keep the depth below 64 for any `u32` triangle count.
-        let mut stack = [(0.0f64, 0u32); 128];
+        // level, and median splits keep the depth below 32 for any `u32` triangle count.
+        let mut stack = [(0.0f64, 0u32); 64];
         let mut len = 1usize;
         while len > 0 {
             len -= 1;
@@ -163,8 +188,15 @@ impl ClearanceField {
             }
             let n = self.nodes[ni as usize];
             if n.count > 0 {
-                for t in &self.tris[n.first as usize..(n.first + n.count) as usize] {
-                    best = best.min(tri_dist2(p, t));
+                for (i, t) in self.tris[n.first as usize..(n.first + n.count) as usize]
+                    .iter()
+                    .enumerate()
+                {
+                    let d = tri_dist2(p, t);
+                    if d < best {
+                        best = d;
+                        arg = n.first + i as u32;
+                    }
                 }
                 continue;
             }
@@ -181,6 +213,7 @@ impl ClearanceField {
             }
             len += 2;
         }
+        HINT.with(|h| h.set(arg));
         (best < bound2).then(|| best.sqrt())
     }
 }
@@ -253,6 +286,96 @@ mod tests {
             .map(|t| tri_dist2(p, t))
             .fold(f64::INFINITY, f64::min)
             .sqrt()
+    }
+
+    /// The search before the warm start (best so far from infinity, nothing remembered):
+    /// the frozen reference that the warm-started search must equal bit for bit.
+    fn reference_search(f: &ClearanceField, p: P3, bound2: f64) -> Option<f64> {
+        if f.nodes.is_empty() {
+            return None;
+        }
+        let mut best = f64::INFINITY;
+        let mut stack = vec![(0.0f64, 0u32)];
+        while let Some((d, ni)) = stack.pop() {
+            if d >= best.min(bound2) {
+                continue;
+            }
+            let n = f.nodes[ni as usize];
+            if n.count > 0 {
+                for t in &f.tris[n.first as usize..(n.first + n.count) as usize] {
+                    best = best.min(tri_dist2(p, t));
+                }
+                continue;
+            }
+            let (l, r) = (ni + 1, n.first);
+            let dl = box_dist2(p, f.nodes[l as usize].lo, f.nodes[l as usize].hi);
+            let dr = box_dist2(p, f.nodes[r as usize].lo, f.nodes[r as usize].hi);
+            if dl < dr {
+                stack.extend([(dr, r), (dl, l)]);
+            } else {
+                stack.extend([(dl, l), (dr, r)]);
+            }
+        }
+        (best < bound2).then(|| best.sqrt())
+    }
+
+    /// The warm start changes no bit, whatever the hint: random soups and a grid of
+    /// axis-aligned squares (many equidistant triangles, ties), queried along a walk (good
+    /// hints), at random (poor hints) and with planted hints (out of range, another
+    /// triangle), by `distance` and `distance_below`, against the reference search.
+    #[test]
+    fn warm_start_has_the_bits_of_the_cold_search() {
+        let mut rng = Rng::new(23);
+        let mut soup = Vec::new();
+        for _ in 0..600 {
+            let a = [rng.f(), rng.f(), rng.f()];
+            let b = add_scaled(a, [rng.f() - 0.5, rng.f() - 0.5, rng.f() - 0.5], 0.1);
+            let c = add_scaled(a, [rng.f() - 0.5, rng.f() - 0.5, rng.f() - 0.5], 0.1);
+            soup.push([a, b, c]);
+        }
+        let mut grid = Vec::new();
+        for i in 0..12 {
+            for j in 0..12 {
+                let (x, y) = (i as f64 * 0.25, j as f64 * 0.25);
+                for z in [0.0, 1.0] {
+                    grid.push([[x, y, z], [x + 0.25, y, z], [x + 0.25, y + 0.25, z]]);
+                    grid.push([[x, y, z], [x + 0.25, y + 0.25, z], [x, y + 0.25, z]]);
+                }
+            }
+        }
+        for tris in [soup, grid] {
+            let n = tris.len() as u32;
+            let f = ClearanceField::from_triangles(tris);
+            let mut p = [0.5, 0.5, 0.5];
+            for i in 0..3000 {
+                p = if i % 3 == 0 {
+                    [rng.f() * 3.0 - 0.2, rng.f() * 3.0 - 0.2, rng.f() * 1.4 - 0.2]
+                } else {
+                    add_scaled(p, [rng.f() - 0.5, rng.f() - 0.5, rng.f() - 0.5], 0.02)
+                };
+                if i % 7 == 0 {
+                    let planted = [u32::MAX, n, (rng.f() * n as f64) as u32][i % 3];
+                    HINT.with(|h| h.set(planted));
+                }
+                let want = reference_search(&f, p, f64::INFINITY).unwrap_or(f64::INFINITY);
+                assert_eq!(f.distance(p).to_bits(), want.to_bits(), "query {i}");
+                for ub in [want * 1.25, want, want * 0.5] {
+                    assert_eq!(
+                        f.distance_below(p, ub).to_bits(),
+                        want.to_bits(),
+                        "query {i}, bound {ub}"
+                    );
+                }
+                // A hint planted right before a bounded search.
+                HINT.with(|h| h.set((rng.f() * n as f64) as u32));
+                let b2 = (want * 1.1) * (want * 1.1);
+                assert_eq!(
+                    f.search(p, b2).map(f64::to_bits),
+                    reference_search(&f, p, b2).map(f64::to_bits),
+                    "query {i}, bounded"
+                );
+            }
+        }
     }
 
     #[test]

@@ -55,8 +55,10 @@ pub trait Exporter: Send + Sync {
     /// before manifests existed it is taken for the earlier run's.
     fn owns(&self, file_name: &str) -> bool;
 
-    /// Runs after every other exporter (`result.json`, which `locate` reads, so that it
-    /// exists only beside a complete set).
+    /// Taken after every other exporter (`result.json`, which `locate` reads, so that it
+    /// exists only beside a complete set): its files come last in the set's order, and an
+    /// earlier exporter's error is reported first. It is written in parallel with the
+    /// others, started first (into the staging directory, which a failed set removes).
     fn last(&self) -> bool {
         false
     }

@@ -607,62 +607,66 @@ fn chosen(x: &dyn Exporter, export: &[String]) -> bool {
     x.opt_in().is_none_or(|k| export.iter().any(|e| e == k))
 }
 
+/// The manifest entry of a staged file (its name and streamed hash).
+fn hash_staged(p: &Path) -> Result<(String, FileEntry), OutputError> {
+    let name = p
+        .file_name()
+        .ok_or_else(|| OutputError::NoFileName { path: p.to_path_buf() })?
+        .to_string_lossy()
+        .into_owned();
+    let entry = entry_of_file(&name, p)?;
+    Ok((name, entry))
+}
+
 fn stage(list: &[Box<dyn Exporter>], ctx: &ExportContext<'_>, opts: &SetOptions<'_>) -> Result<Staged, OutputError> {
     use rayon::prelude::*;
-    let mut written: Vec<Option<Vec<PathBuf>>> = vec![None; list.len()];
     let mut order = Vec::new();
     let on = |i: &usize| chosen(list[*i].as_ref(), opts.export);
     // The exporters write distinct files into the staging directory and read the run
-    // only, so those that are not `last` run in parallel (rayon); the results are taken in
-    // the sequence order (file order, and the first error in that order, as one thread
-    // would); then the `last` ones (result.json), in order.
+    // only, so all of them run in parallel (rayon), the `last` ones (result.json, the
+    // largest) started first; the results are taken in the sequence order — the others in
+    // the list's order, then the `last` ones — so file order, the first error in that
+    // order and the swap order are those of one thread writing the `last` ones after the
+    // others. (Staged files are invisible until the swap, and a failed stage is removed
+    // whole, so result.json still exists only beside a complete set.)
     let first: Vec<usize> = (0..list.len()).filter(|&i| !list[i].last()).filter(on).collect();
     let last: Vec<usize> = (0..list.len()).filter(|&i| list[i].last()).filter(on).collect();
-    let parallel: Vec<Result<Vec<PathBuf>, OutputError>> = first
+    let started: Vec<usize> = last.iter().chain(&first).copied().collect();
+    // Each task hashes its own files right after writing them (one thread per file, as
+    // before), so the largest file's hash no longer waits for the others.
+    type Hashed = Vec<Result<(String, FileEntry), OutputError>>;
+    type Done = Result<(Vec<PathBuf>, Hashed), OutputError>;
+    let done: Vec<Done> = started
         .par_iter()
         .with_max_len(1)
         .map(|&i| {
             interrupted()?;
-            list[i].write(ctx)
+            let paths = list[i].write(ctx)?;
+            let hashed = paths.iter().map(|p| hash_staged(p)).collect();
+            Ok((paths, hashed))
         })
         .collect();
-    let results = first.iter().copied().zip(parallel).map(|(i, r)| (i, Some(r)));
-    let results = results.chain(last.iter().map(|&i| (i, None)));
-    for (i, r) in results {
-        let paths = match r {
-            Some(r) => r?,
-            None => {
-                interrupted()?;
-                list[i].write(ctx)?
-            }
-        };
+    let mut by_exporter: Vec<Option<Done>> = (0..list.len()).map(|_| None).collect();
+    for (&i, r) in started.iter().zip(done) {
+        by_exporter[i] = Some(r);
+    }
+    let mut hashes: Vec<Option<Hashed>> = (0..list.len()).map(|_| None).collect();
+    // Write errors first, in the sequence order; then hash errors, in file order.
+    for i in first.iter().chain(&last).copied() {
+        let Some(r) = by_exporter[i].take() else { continue };
+        let (paths, hashed) = r?;
         order.extend(
             paths
                 .iter()
                 .filter_map(|p| p.file_name())
                 .map(|n| n.to_string_lossy().into_owned()),
         );
-        written[i] = Some(paths);
+        hashes[i] = Some(hashed);
     }
     interrupted()?;
-    let paths: Vec<PathBuf> = written.into_iter().flatten().flatten().collect();
-    // Each file hashed by one thread, in parallel; taken in order (the first error too).
-    let hashed: Vec<Result<(String, FileEntry), OutputError>> = paths
-        .par_iter()
-        .with_max_len(1)
-        .map(|p| {
-            let name = p
-                .file_name()
-                .ok_or_else(|| OutputError::NoFileName { path: p.clone() })?
-                .to_string_lossy()
-                .into_owned();
-            let entry = entry_of_file(&name, p)?;
-            Ok((name, entry))
-        })
-        .collect();
     let mut files = Vec::new();
     let mut entries = Vec::new();
-    for r in hashed {
+    for r in hashes.into_iter().flatten().flatten() {
         let (name, entry) = r?;
         entries.push(entry);
         files.push(name);
