@@ -48,6 +48,7 @@ fn main() {
                 .ok()
                 .and_then(|d| d.parse().ok())
                 .unwrap_or(0.5),
+            vector_opening: std::env::var("VECTOR").is_ok_and(|v| v != "0"),
         }),
         _ => None,
     };
@@ -223,12 +224,13 @@ fn main() {
                     "intra".to_string()
                 };
                 println!(
-                    "  w {:.3} peaks {:.2}/{:.2} saddle {:.2} Ap {:.2} sec {:.1}/{:.1} min/Ap {:.2} max/Ap {:.2} vol {:.1}/{:.1} {} {}",
+                    "  w {:.3} peaks {:.2}/{:.2} saddle {:.2} Ap {:.2} Av {:.2} sec {:.1}/{:.1} min/Ap {:.2} max/Ap {:.2} vol {:.1}/{:.1} {} {}",
                     s.weight,
                     s.peaks[0],
                     s.peaks[1],
                     s.saddle,
                     s.portal_area,
+                    s.opening,
                     s.projected[0],
                     s.projected[1],
                     ratio,
