@@ -53,6 +53,7 @@ fn main() {
                 .and_then(|d| d.parse().ok())
                 .unwrap_or(0.5),
             vector_opening: std::env::var("VECTOR").is_ok_and(|v| v != "0"),
+            tunnels: std::env::var("TUNNELS").is_ok_and(|v| v != "0"),
         }),
         _ => None,
     };
@@ -582,7 +583,7 @@ fn tunnels() {
             let mut adj: Vec<Vec<usize>> = vec![Vec::new(); n + 2];
             let mut to = Vec::new();
             let mut cap: Vec<f64> = Vec::new();
-            let mut add = |adj: &mut Vec<Vec<usize>>, a: usize, b: usize, c: f64, to: &mut Vec<usize>, cap: &mut Vec<f64>| {
+            let add = |adj: &mut Vec<Vec<usize>>, a: usize, b: usize, c: f64, to: &mut Vec<usize>, cap: &mut Vec<f64>| {
                 adj[a].push(to.len());
                 to.push(b);
                 cap.push(c);

@@ -111,6 +111,7 @@ pub const DEFAULT_APERTURE: ApertureGate = ApertureGate {
     slab: SLAB,
     slab_peak: 0.5,
     vector_opening: true,
+    tunnels: true,
 };
 
 /// The clean-up's slab ratio ([`ApertureGate::slab`]) of [`DEFAULT_APERTURE`].
@@ -471,6 +472,8 @@ struct Comp {
     members: Vec<u32>,
     /// The 3D convex hull of the members' vertices, built when first needed.
     hull: Option<Hull3>,
+    /// The group of a constrained run ([`run_inner`]'s `labels`; 0 without).
+    label: u32,
 }
 
 /// A component's links by neighbour, sorted by the neighbour's id: the subset of
@@ -602,6 +605,13 @@ pub struct ApertureGate {
     /// spanning a planar rim is the rim's area, whatever the surface's folds, so it
     /// measures the opening itself and does not depend on the tetrahedralization.
     pub vector_opening: bool,
+    /// Whether the boundaries between the stopped merge's components are moved to the
+    /// narrowest section between them ([`tunnel_labels`]) and the merge is run again
+    /// within the moved groups. Along a tunnel of nearly uniform width the field has no
+    /// sharp pass, so where two rooms' fronts meet is decided by the order of collapses at
+    /// weight about 1, i.e. by the tetrahedra; the least-area cut between the rooms' cores
+    /// is a property of the space (and of the faces available to it).
+    pub tunnels: bool,
 }
 
 impl ApertureGate {
@@ -646,13 +656,41 @@ pub(crate) fn run(cx: &CellComplex, settings: &Settings, progress: &mut dyn FnMu
         .heuristic()
         .aperture_gate()
         .filter(|_| !matches!(settings.stop, StopRule::Cells(_)));
-    run_inner(cx, settings, gate, None, None, progress)
+    run_moved(cx, settings, gate, None, progress)
+}
+
+/// The merge, then (with a gate that moves boundaries and a `threshold` stop) the merge
+/// again within the groups [`tunnel_labels`] gives, if they differ from the first's.
+fn run_moved(
+    cx: &CellComplex,
+    settings: &Settings,
+    gate: Option<ApertureGate>,
+    mut trace: Option<&mut Vec<TraceStep>>,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Decimation {
+    let field = CellField::new(cx);
+    let first = run_inner(cx, &field, settings, gate, trace.as_deref_mut(), None, None, progress);
+    let StopReason::Threshold { next_weight, .. } = first.stop else {
+        return first;
+    };
+    if !gate.is_some_and(|g| g.tunnels) {
+        return first;
+    }
+    let Some(labels) = tunnel_labels(cx, &field, &first.partition) else {
+        return first;
+    };
+    if let Some(t) = trace.as_deref_mut() {
+        t.clear();
+    }
+    run_inner(cx, &field, settings, gate, trace, None, Some((&labels, next_weight)), progress)
 }
 
 /// The run to the end (stop `none`) and, from the same pass, the run stopped at
 /// `threshold:r` (a prefix of it up to the first pair popped at or above `r`, which
 /// is where the stopped run would have stopped, followed by the clean-up pass applied to a
-/// copy of the components there; same steps, stop reason and counters).
+/// copy of the components there; same steps, stop reason and counters). With a gate that
+/// moves boundaries, the pass runs twice when the first one's stopped groups move: the
+/// second keeps to the moved groups until the cut, then goes on freely to the end.
 pub(crate) fn run_to_end_and_cut(
     cx: &CellComplex,
     settings: &Settings,
@@ -664,18 +702,210 @@ pub(crate) fn run_to_end_and_cut(
         ..*settings
     };
     let gate = settings.heuristic.heuristic().aperture_gate();
+    let field = CellField::new(cx);
     let mut cut = None;
-    let full = run_inner(cx, &full_settings, gate, None, Some((r, &mut cut)), progress);
+    let full = run_inner(cx, &field, &full_settings, gate, None, Some((r, &mut cut)), None, progress);
+    let next = cut.as_ref().map(|c: &super::Cut| c.next_weight);
+    let stopped = full.cut(cx, settings, cut);
+    let (Some(next), true) = (next, gate.is_some_and(|g| g.tunnels)) else {
+        return (stopped, full);
+    };
+    let Some(labels) = tunnel_labels(cx, &field, &stopped.partition) else {
+        return (stopped, full);
+    };
+    let mut cut = None;
+    let full = run_inner(
+        cx,
+        &field,
+        &full_settings,
+        gate,
+        None,
+        Some((r, &mut cut)),
+        Some((&labels, next)),
+        &mut |_, _| {},
+    );
     let stopped = full.cut(cx, settings, cut);
     (stopped, full)
 }
 
 /// The merge with `gate` (overriding the heuristic's), recording every pair it looks at
-/// with the components' projected sections (slow: for diagnostics).
+/// with the components' projected sections (slow: for diagnostics). With boundaries moved,
+/// the record is the second pass's.
 pub fn trace(cx: &CellComplex, settings: &Settings, gate: Option<ApertureGate>) -> (Decimation, Vec<TraceStep>) {
     let mut t = Vec::new();
-    let d = run_inner(cx, settings, gate, Some(&mut t), None, &mut |_, _| {});
+    let d = run_moved(cx, settings, gate, Some(&mut t), &mut |_, _| {});
     (d, t)
+}
+
+/// The groups of a stopped merge with each boundary moved to the narrowest section between
+/// the two groups (`None` when no cell moves). For each pair of neighbouring groups
+/// `(i, j)` (in order of their ids, each seeing the moves of the pairs before it): the
+/// *cores* are the cells of each group whose field value is at least the geometric mean
+/// of the pair's saddle (the highest passage between them) and the lower of their peaks;
+/// the boundary becomes the minimum cut, by portal area, between the cores of `i` and
+/// those of `j` through the other cells of the two groups (the cells reachable from `i`'s
+/// cores in the residual graph of a maximum flow join `i`, those that reach `j`'s cores
+/// join `j`, any other keeps its group). A ratio of two field values of the model picks
+/// the cores, and the cut is the least-area surface the complex offers between them,
+/// whatever the order in which the merge reached it: a tunnel's boundary lands at its
+/// narrowest section.
+pub fn tunnel_labels(cx: &CellComplex, field: &CellField, part: &super::Partition) -> Option<Vec<u32>> {
+    let n = cx.cells.len();
+    let mut label = vec![u32::MAX; n];
+    let mut members: Vec<Vec<u32>> = vec![Vec::new(); part.len()];
+    for (i, c) in part.cells.iter().enumerate() {
+        for p in &c.pieces {
+            label[p.idx()] = i as u32;
+            members[i].push(p.0);
+        }
+    }
+    let peak: Vec<f64> = members
+        .iter()
+        .map(|m| m.iter().map(|&c| field.value[c as usize]).fold(0.0, f64::max))
+        .collect();
+    let mut cell_portals: Vec<Vec<u32>> = vec![Vec::new(); n];
+    for (k, p) in cx.portals.iter().enumerate() {
+        let [a, b] = p.cells;
+        if a != b && label[a.idx()] != u32::MAX && label[b.idx()] != u32::MAX {
+            cell_portals[a.idx()].push(k as u32);
+            cell_portals[b.idx()].push(k as u32);
+        }
+    }
+    let pairs: Vec<(u32, u32, f64)> = part
+        .portals(cx)
+        .iter()
+        .filter_map(|mp| {
+            let (i, j) = (part.cell_of(mp.cells[0])?, part.cell_of(mp.cells[1])?);
+            let s = mp.portals.iter().map(|&k| field.passage[k]).fold(0.0, f64::max);
+            Some((i.min(j) as u32, i.max(j) as u32, s))
+        })
+        .collect();
+    let mut moved = false;
+    let mut node: std::collections::HashMap<u32, u32> = Default::default();
+    for (i, j, saddle) in pairs {
+        let level = (saddle * peak[i as usize].min(peak[j as usize])).sqrt();
+        if !(level.is_finite() && level > 0.0) {
+            continue;
+        }
+        // Nodes 0 (source: i's cores) and 1 (sink: j's cores), then the other cells.
+        node.clear();
+        let mut cells: Vec<u32> = Vec::new();
+        let mut cores = [false; 2];
+        for &g in &[i, j] {
+            for &c in &members[g as usize] {
+                if field.value[c as usize] >= level {
+                    node.insert(c, (g == j) as u32);
+                    cores[(g == j) as usize] = true;
+                } else {
+                    node.insert(c, 2 + cells.len() as u32);
+                    cells.push(c);
+                }
+            }
+        }
+        if !(cores[0] && cores[1]) || cells.is_empty() {
+            continue;
+        }
+        let m = 2 + cells.len();
+        let (mut head, mut to, mut cap): (Vec<Vec<u32>>, Vec<u32>, Vec<f64>) = (vec![Vec::new(); m], Vec::new(), Vec::new());
+        for &g in &[i, j] {
+            for &c in &members[g as usize] {
+                for &k in &cell_portals[c as usize] {
+                    let [a, b] = cx.portals[k as usize].cells;
+                    let o = if a.0 == c { b.0 } else { a.0 };
+                    // Each portal once (from its lower cell), both ends in the pair.
+                    let (Some(&x), Some(&y)) = (node.get(&c), node.get(&o)) else {
+                        continue;
+                    };
+                    if c > o || x == y {
+                        continue;
+                    }
+                    let area = cx.portals[k as usize].area;
+                    for (u, v) in [(x, y), (y, x)] {
+                        head[u as usize].push(to.len() as u32);
+                        to.push(v);
+                        cap.push(area);
+                    }
+                }
+            }
+        }
+        // Edmonds–Karp: shortest augmenting paths, in the edges' order (deterministic).
+        let mut prev = vec![u32::MAX; m];
+        let reach = loop {
+            prev.iter_mut().for_each(|p| *p = u32::MAX);
+            let mut seen = vec![false; m];
+            seen[0] = true;
+            let mut queue = std::collections::VecDeque::from([0u32]);
+            while let Some(u) = queue.pop_front() {
+                if u == 1 {
+                    break;
+                }
+                for &e in &head[u as usize] {
+                    let v = to[e as usize];
+                    if !seen[v as usize] && cap[e as usize] > 0.0 {
+                        seen[v as usize] = true;
+                        prev[v as usize] = e;
+                        queue.push_back(v);
+                    }
+                }
+            }
+            if !seen[1] {
+                break seen;
+            }
+            let mut bottleneck = f64::INFINITY;
+            let mut v = 1u32;
+            while v != 0 {
+                let e = prev[v as usize] as usize;
+                bottleneck = bottleneck.min(cap[e]);
+                v = to[e ^ 1];
+            }
+            let mut v = 1u32;
+            while v != 0 {
+                let e = prev[v as usize] as usize;
+                cap[e] -= bottleneck;
+                cap[e ^ 1] += bottleneck;
+                v = to[e ^ 1];
+            }
+        };
+        // The cells that reach the sink in the residual graph.
+        let mut to_sink = vec![false; m];
+        to_sink[1] = true;
+        let mut stack = vec![1u32];
+        while let Some(v) = stack.pop() {
+            for &e in &head[v as usize] {
+                // Edge e: v -> u; its reverse u -> v has residual capacity cap[e ^ 1].
+                let u = to[e as usize];
+                if !to_sink[u as usize] && cap[e as usize ^ 1] > 0.0 {
+                    to_sink[u as usize] = true;
+                    stack.push(u);
+                }
+            }
+        }
+        let mut next: [Vec<u32>; 2] = [Vec::new(), Vec::new()];
+        for &g in &[i, j] {
+            for &c in &members[g as usize] {
+                let x = node[&c] as usize;
+                let side = if x < 2 {
+                    x
+                } else if reach[x] {
+                    0
+                } else if to_sink[x] {
+                    1
+                } else {
+                    (g == j) as usize
+                };
+                let want = [i, j][side];
+                if want != g {
+                    moved = true;
+                }
+                label[c as usize] = want;
+                next[side].push(c);
+            }
+        }
+        let [a, b] = next;
+        members[i as usize] = a;
+        members[j as usize] = b;
+    }
+    moved.then_some(label)
 }
 
 /// The projected area of a component on `frame` (2D convex hull of its 3D hull).
@@ -759,18 +989,25 @@ fn cut_area(poly: &crate::geom::ConvexPolyhedron, frame: &Frame, t: f64) -> f64 
     if a.is_finite() { a.max(0.0) } else { 0.0 }
 }
 
+/// The merge. With `labels` (a group per cell, and the first pass's next weight), a pair
+/// of components of different groups is never collapsed while the run is *constrained*:
+/// until it stops (a `threshold` stop: at the first pair of one group at or above it, or
+/// with the first pass's next weight when only pairs across groups are left) or, in a run
+/// to the end, until the cut is recorded (then every pair is weighed again).
+#[allow(clippy::too_many_arguments)]
 fn run_inner(
     cx: &CellComplex,
+    field: &CellField,
     settings: &Settings,
     gate: Option<ApertureGate>,
     mut trace: Option<&mut Vec<TraceStep>>,
     mut cut: Option<(f64, &mut Option<super::Cut>)>,
+    labels: Option<(&[u32], f64)>,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Decimation {
     let t0 = Instant::now();
     let h = settings.heuristic.heuristic();
     let sections = gate.is_some() || trace.is_some();
-    let field = CellField::new(cx);
     let n = cx.cells.len();
     let mut comps: Vec<Comp> = vec![Comp::default(); n];
     let mut cells = 0usize;
@@ -781,6 +1018,7 @@ fn run_inner(
         k.peak = field.value[id.idx()];
         k.volume = c.poly.volume();
         k.pieces = 1;
+        k.label = labels.map_or(0, |(l, _)| l[id.idx()]);
         if sections {
             k.members.push(id.0);
         }
@@ -853,6 +1091,43 @@ fn run_inner(
     stats.init_seconds = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     let mut steps = Vec::new();
+    // Every pair again (after a constrained stretch, whose pairs across groups were
+    // dropped from the heap).
+    let push_all = |comps: &[Comp], heap: &mut BinaryHeap<Entry>, stats: &mut DecimationStats| {
+        for (a, c) in comps.iter().enumerate() {
+            if !c.alive {
+                continue;
+            }
+            for (&b, l) in &c.links {
+                if (a as u32) < b {
+                    stats.weights_computed += 1;
+                    heap.push(Entry {
+                        weight: weigh(c, &comps[b as usize], l),
+                        saddle: l.saddle,
+                        a: a as u32,
+                        b,
+                    });
+                }
+            }
+        }
+    };
+    // The stopped run's clean-up, on a copy of the state where it stops.
+    let cut_here = |comps: &[Comp], cells: usize, steps: usize, w: f64, stats: &DecimationStats, constrained: bool| {
+        let mut cleanup = Vec::new();
+        if let Some(g) = gate {
+            let (mut copy, mut left) = (comps.to_vec(), cells);
+            clean_up(cx, &mut copy, &g, constrained, &mut cleanup, &mut left, &mut |_, _| {});
+        }
+        super::Cut {
+            steps,
+            next_weight: w,
+            weights_computed: stats.weights_computed,
+            reweighs_skipped: stats.reweighs_skipped,
+            collapse_seconds: t1.elapsed().as_secs_f64(),
+            cleanup,
+        }
+    };
+    let mut constrained = labels.is_some();
     let stop = loop {
         if let StopRule::Cells(target) = settings.stop
             && cells <= target
@@ -860,7 +1135,25 @@ fn run_inner(
             break StopReason::Cells { target };
         }
         let Some(e) = heap.pop() else {
-            break StopReason::Exhausted;
+            if !constrained {
+                break StopReason::Exhausted;
+            }
+            // Only pairs across groups are left: where the first pass stopped.
+            let next = labels.map_or(f64::NAN, |(_, w)| w);
+            if let StopRule::Threshold(r) = settings.stop {
+                break StopReason::Threshold {
+                    threshold: r,
+                    next_weight: next,
+                };
+            }
+            if let Some((_, c)) = cut.as_mut()
+                && c.is_none()
+            {
+                **c = Some(cut_here(&comps, cells, steps.len(), next, &stats, true));
+            }
+            constrained = false;
+            push_all(&comps, &mut heap, &mut stats);
+            continue;
         };
         let (a, b) = (e.a as usize, e.b as usize);
         // Stale entries: a side merged away, or the weight or saddle changed since.
@@ -871,6 +1164,10 @@ fn run_inner(
             continue;
         };
         if l.saddle.to_bits() != e.saddle.to_bits() || weigh(&comps[a], &comps[b], &l).to_bits() != e.weight.to_bits() {
+            continue;
+        }
+        if constrained && comps[a].label != comps[b].label {
+            // Across groups: weighed again when a side changes, or after the constraint.
             continue;
         }
         let w = e.weight;
@@ -887,20 +1184,11 @@ fn run_inner(
             && c.is_none()
             && w >= *r
         {
-            // The stopped run's clean-up, on a copy of the state where it stops.
-            let mut cleanup = Vec::new();
-            if let Some(g) = gate {
-                let (mut copy, mut left) = (comps.clone(), cells);
-                clean_up(cx, &mut copy, &g, &mut cleanup, &mut left, &mut |_, _| {});
+            **c = Some(cut_here(&comps, cells, steps.len(), w, &stats, constrained));
+            if constrained {
+                constrained = false;
+                push_all(&comps, &mut heap, &mut stats);
             }
-            **c = Some(super::Cut {
-                steps: steps.len(),
-                next_weight: w,
-                weights_computed: stats.weights_computed,
-                reweighs_skipped: stats.reweighs_skipped,
-                collapse_seconds: t1.elapsed().as_secs_f64(),
-                cleanup,
-            });
         }
         let gated = gate.filter(|g| {
             w >= g.from && g.holds_ball(comps[a].peak, comps[a].volume) && g.holds_ball(comps[b].peak, comps[b].volume)
@@ -1058,7 +1346,7 @@ fn run_inner(
         }
     };
     if let Some(g) = gate {
-        clean_up(cx, &mut comps, &g, &mut steps, &mut cells, progress);
+        clean_up(cx, &mut comps, &g, constrained, &mut steps, &mut cells, progress);
     }
     stats.steps = steps.len();
     stats.collapse_seconds = t1.elapsed().as_secs_f64();
@@ -1086,6 +1374,7 @@ fn clean_up(
     cx: &CellComplex,
     comps: &mut [Comp],
     g: &ApertureGate,
+    constrained: bool,
     steps: &mut Vec<Step>,
     cells: &mut usize,
     progress: &mut dyn FnMut(usize, usize),
@@ -1113,7 +1402,12 @@ fn clean_up(
             let mut best: Option<(f64, u32)> = None;
             for (j, l) in links {
                 let o = &comps[j as usize];
-                if !o.alive || o.peak <= 0.0 || peak > o.peak || best.is_some_and(|(a, _)| l.area <= a) {
+                if !o.alive
+                    || o.peak <= 0.0
+                    || peak > o.peak
+                    || best.is_some_and(|(a, _)| l.area <= a)
+                    || (constrained && o.label != comps[i as usize].label)
+                {
                     continue;
                 }
                 let dominated = peak < g.dominance * o.peak;
@@ -1440,7 +1734,7 @@ mod tests {
             slab: 0.0,
             ..DEFAULT_APERTURE
         };
-        clean_up(&cx, &mut comps, &g, &mut steps, &mut cells, &mut |_, _| {});
+        clean_up(&cx, &mut comps, &g, false, &mut steps, &mut cells, &mut |_, _| {});
         let pairs: Vec<(u32, u32)> = steps.iter().map(|s| (s.a.0, s.b.0)).collect();
         // 3 first (lowest peak; its only neighbour 2 dominates it), then 2 into 1.
         assert_eq!(pairs, vec![(2, 3), (1, 2)]);
@@ -1478,6 +1772,7 @@ mod tests {
             &cx,
             &mut comps,
             &DEFAULT_APERTURE,
+            false,
             &mut steps,
             &mut cells,
             &mut |_, _| {},
@@ -1506,7 +1801,7 @@ mod tests {
                 fresh[y as usize].links.insert(x, link(area).reversed());
             }
             let (mut steps, mut cells) = (Vec::new(), 3);
-            clean_up(&cx, &mut fresh, &g, &mut steps, &mut cells, &mut |_, _| {});
+            clean_up(&cx, &mut fresh, &g, false, &mut steps, &mut cells, &mut |_, _| {});
             assert!(steps.is_empty());
         }
     }
