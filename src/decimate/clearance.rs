@@ -71,7 +71,16 @@
 //! function of the stopped merge's components, so a run to the end applies it to a copy
 //! of the state where the stopped run stops (one pass for the weight curve).
 //! Both tests are ratios (areas, volumes), so the gate is scale-free. With a `cells:N`
-//! stop the gate is off (that stop asks for N cells).
+//! stop the gate is off (that stop asks for N cells). The opening the sections are
+//! compared with is the portals' vector area ([`ApertureGate::vector_opening`]).
+//!
+//! **Boundaries** ([`ApertureGate::tunnels`]). Along a tunnel of nearly uniform width
+//! the field has no sharp pass, so where two rooms' fronts meet is decided by the order
+//! of the collapses at weight about 1, which follows the tetrahedra (the thesis caverns
+//! rotated 7°/8°/9° put 4 of 7 portals elsewhere). At a threshold stop, each boundary of
+//! the stopped groups is moved to the least-area cut between the two groups' cores
+//! ([`tunnel_labels`]) and the merge runs again, constrained to the moved groups; the
+//! record (steps, weight curve) is the second run's, so `replay` still rebuilds it.
 //!
 //! The weight formula is the heuristic's ([`Clearance`](super::heuristic::Clearance));
 //! this file keeps the field and the engine, which maintains each component's peak and
@@ -101,7 +110,8 @@ pub const DEFAULT_RATIO: f64 = 1.8;
 /// a pair of persistence ≥ 1.1 whose components each hold twice their largest empty ball
 /// is kept apart when the smaller section is at least 1.5 times the opening (projected,
 /// then confirmed by the largest of 5 parallel cuts); at the end, a component whose peak
-/// is below 0.15 of a neighbour's is absorbed into it.
+/// is below 0.15 of a neighbour's is absorbed into it. The opening is the portals' vector
+/// area, and the stopped boundaries are moved to the least-area cuts between the rooms.
 pub const DEFAULT_APERTURE: ApertureGate = ApertureGate {
     from: 1.1,
     ratio: 1.5,
