@@ -755,7 +755,7 @@ pub fn trace(cx: &CellComplex, settings: &Settings, gate: Option<ApertureGate>) 
 /// the boundary becomes the minimum cut, by portal area, between the cores of `i` and
 /// those of `j` through the other cells of the two groups (the cells reachable from `i`'s
 /// cores in the residual graph of a maximum flow join `i`, those that reach `j`'s cores
-/// join `j`, any other keeps its group). A ratio of two field values of the model picks
+/// join `j`, any other — between two cuts of least area — the group of the higher peak). A ratio of two field values of the model picks
 /// the cores, and the cut is the least-area surface the complex offers between them,
 /// whatever the order in which the merge reached it: a tunnel's boundary lands at its
 /// narrowest section.
@@ -890,6 +890,15 @@ pub fn tunnel_labels(cx: &CellComplex, field: &CellField, part: &super::Partitio
                 }
             }
         }
+        // Cells between the least and the largest minimum cut (a tie: a tunnel of uniform
+        // section) join the group of the higher peak (then the larger volume, then the
+        // lower id): not the group they came from, which the collapse order chose.
+        let volume = |g: u32| -> f64 { members[g as usize].iter().map(|&c| cx.cells[c as usize].poly.volume()).sum() };
+        let tie = match peak[i as usize].total_cmp(&peak[j as usize]) {
+            Ordering::Greater => 0,
+            Ordering::Less => 1,
+            Ordering::Equal => (volume(j) > volume(i)) as usize,
+        };
         let mut next: [Vec<u32>; 2] = [Vec::new(), Vec::new()];
         for &g in &[i, j] {
             for &c in &members[g as usize] {
@@ -901,7 +910,7 @@ pub fn tunnel_labels(cx: &CellComplex, field: &CellField, part: &super::Partitio
                 } else if to_sink[x] {
                     1
                 } else {
-                    (g == j) as usize
+                    tie
                 };
                 let want = [i, j][side];
                 if want != g {
@@ -1711,6 +1720,78 @@ mod tests {
         let oblique = Frame::new([d, d, 0.0], [0.0; 3]).unwrap();
         let a = cut_area(&b, &oblique, 2.0 * d);
         assert!((a - 2.0 * std::f64::consts::SQRT_2).abs() < 1e-9, "{a}");
+    }
+
+    /// The partition of the active cells of `cx` into the connected parts of `group`'s
+    /// classes (recorded as collapses, survivors the lower ids, and replayed).
+    fn partition_of(cx: &CellComplex, group: impl Fn(CellId) -> usize) -> super::super::Partition {
+        let mut owner: Vec<u32> = (0..cx.cells.len() as u32).collect();
+        let mut left = cx.active_cells().count();
+        let mut steps = Vec::new();
+        for p in &cx.portals {
+            let [a, b] = p.cells;
+            if a == b || !cx.cells[a.idx()].active() || !cx.cells[b.idx()].active() || group(a) != group(b) {
+                continue;
+            }
+            let (ra, rb) = (find(&mut owner, a.0), find(&mut owner, b.0));
+            if ra == rb {
+                continue;
+            }
+            let (x, y) = (ra.min(rb), ra.max(rb));
+            owner[y as usize] = x;
+            left -= 1;
+            steps.push(Step {
+                a: CellId(x),
+                b: CellId(y),
+                weight: 1.0,
+                cells_remaining: left,
+                portal_area: p.area,
+                projected: [0.0, 0.0],
+            });
+        }
+        super::super::Decimation::replay(cx, &steps).expect("collapses of live components")
+    }
+
+    #[test]
+    fn tunnel_labels_move_a_boundary_to_the_least_area_cut_and_keep_the_rooms() {
+        // Two 4 × 4 × 3 rooms joined through a 1 m thick wall by a 1 × 2 door corridor
+        // (x ∈ [4, 5]); the boundary placed by the cells' centroids at several x.
+        let s = crate::generate::scenes::two_rooms();
+        let m = crate::model::from_soup("two rooms", s.vertices, s.polygons).unwrap();
+        let cx = crate::pipeline::complex_of(&m).unwrap();
+        let x = |c: CellId| cx.cells[c.idx()].poly.centroid()[0];
+        let area = |p: &super::super::Partition| p.portals(&cx).iter().map(|mp| mp.area).sum::<f64>();
+        let field = CellField::new(&cx);
+        let mut moves = 0;
+        for at in [4.1, 4.3, 4.5, 4.7, 4.9, 5.1, 5.3] {
+            let part = partition_of(&cx, |c| (x(c) >= at) as usize);
+            if part.len() != 2 {
+                continue;
+            }
+            let Some(labels) = tunnel_labels(&cx, &field, &part) else {
+                continue;
+            };
+            moves += 1;
+            let moved = partition_of(&cx, |c| labels[c.idx()] as usize);
+            assert_eq!(moved.len(), 2, "at {at}: two connected groups");
+            // Every cell of either room keeps its side; the new boundary is no larger than
+            // the old one, and no smaller than the door's section (1 × 2).
+            for (id, _) in cx.active_cells() {
+                if x(id) < 4.0 {
+                    assert_eq!(labels[id.idx()], 0, "at {at}: cell {id:?} of the first room");
+                } else if x(id) > 5.0 {
+                    assert_eq!(labels[id.idx()], 1, "at {at}: cell {id:?} of the second room");
+                }
+            }
+            let (before, after) = (area(&part), area(&moved));
+            assert!(
+                after <= before * (1.0 + 1e-12) && after >= 2.0 * (1.0 - 1e-9),
+                "at {at}: {before} -> {after}"
+            );
+            // Moved again, it stays (the least-area cut is a fixed point).
+            assert!(tunnel_labels(&cx, &field, &moved).is_none(), "at {at}");
+        }
+        assert!(moves > 0, "some boundary moved");
     }
 
     fn comp(peak: f64, links: &[(u32, f64)]) -> Comp {
