@@ -516,7 +516,11 @@ fn unrotate_789(p: [f64; 3]) -> [f64; 3] {
 }
 
 /// Area and area-weighted centroid (mapped by `back`) of a set of complex portals.
-fn surface(cx: &portalfind::complex::CellComplex, ks: &[usize], back: &dyn Fn([f64; 3]) -> [f64; 3]) -> (f64, [f64; 3]) {
+fn surface(
+    cx: &portalfind::complex::CellComplex,
+    ks: &[usize],
+    back: &dyn Fn([f64; 3]) -> [f64; 3],
+) -> (f64, [f64; 3]) {
     let (mut a, mut c) = (0.0, [0.0; 3]);
     for &k in ks {
         for q in &cx.portals[k].pieces {
@@ -583,14 +587,15 @@ fn tunnels() {
             let mut adj: Vec<Vec<usize>> = vec![Vec::new(); n + 2];
             let mut to = Vec::new();
             let mut cap: Vec<f64> = Vec::new();
-            let add = |adj: &mut Vec<Vec<usize>>, a: usize, b: usize, c: f64, to: &mut Vec<usize>, cap: &mut Vec<f64>| {
-                adj[a].push(to.len());
-                to.push(b);
-                cap.push(c);
-                adj[b].push(to.len());
-                to.push(a);
-                cap.push(c);
-            };
+            let add =
+                |adj: &mut Vec<Vec<usize>>, a: usize, b: usize, c: f64, to: &mut Vec<usize>, cap: &mut Vec<f64>| {
+                    adj[a].push(to.len());
+                    to.push(b);
+                    cap.push(c);
+                    adj[b].push(to.len());
+                    to.push(a);
+                    cap.push(c);
+                };
             let mut portal_edge = Vec::new();
             for (k, p) in cx.portals.iter().enumerate() {
                 let [a, b] = p.cells;

@@ -166,13 +166,19 @@ fn caverns_portals_are_the_same_rotated_and_offset() {
     assert_eq!(shipped.len(), 7);
     for (name, moved) in [
         ("rotated 7/8/9", cavern_portals(rotate_789, unrotate_789)),
-        ("offset 1e6", cavern_portals(|p| p.map(|v| v + 1e6), |p| p.map(|v| v - 1e6))),
+        (
+            "offset 1e6",
+            cavern_portals(|p| p.map(|v| v + 1e6), |p| p.map(|v| v - 1e6)),
+        ),
     ] {
         assert_eq!(moved.len(), 7, "{name}");
         for ((a, c), (b, d)) in shipped.iter().zip(&moved) {
             let dist = (0..3).map(|k| (c[k] - d[k]).powi(2)).sum::<f64>().sqrt();
             println!("{name}: area {a:.4} / {b:.4}, centroids {dist:.2e} apart");
-            assert!((a - b).abs() <= 1e-6 * a && dist <= 1e-6, "{name}: {a} at {c:?} vs {b} at {d:?}");
+            assert!(
+                (a - b).abs() <= 1e-6 * a && dist <= 1e-6,
+                "{name}: {a} at {c:?} vs {b} at {d:?}"
+            );
         }
     }
 }

@@ -591,7 +591,13 @@ fn run_with_curve_equals_the_stopped_run_where_the_clean_up_acts() {
         &cx,
         &settings(HeuristicKind::Aperture, Estimator::ALL[0], StopRule::None),
     );
-    same_curve(&curve.expect("a curve"), &full.steps, &got, HeuristicKind::Aperture, "noisy-1");
+    same_curve(
+        &curve.expect("a curve"),
+        &full.steps,
+        &got,
+        HeuristicKind::Aperture,
+        "noisy-1",
+    );
 }
 
 /// The curve of a stopped run is the run to the end; for `aperture` at a threshold stop

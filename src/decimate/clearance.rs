@@ -692,7 +692,16 @@ fn run_moved(
     if let Some(t) = trace.as_deref_mut() {
         t.clear();
     }
-    run_inner(cx, &field, settings, gate, trace, None, Some((&labels, next_weight)), progress)
+    run_inner(
+        cx,
+        &field,
+        settings,
+        gate,
+        trace,
+        None,
+        Some((&labels, next_weight)),
+        progress,
+    )
 }
 
 /// The run to the end (stop `none`) and, from the same pass, the run stopped at
@@ -714,7 +723,16 @@ pub(crate) fn run_to_end_and_cut(
     let gate = settings.heuristic.heuristic().aperture_gate();
     let field = CellField::new(cx);
     let mut cut = None;
-    let full = run_inner(cx, &field, &full_settings, gate, None, Some((r, &mut cut)), None, progress);
+    let full = run_inner(
+        cx,
+        &field,
+        &full_settings,
+        gate,
+        None,
+        Some((r, &mut cut)),
+        None,
+        progress,
+    );
     let next = cut.as_ref().map(|c: &super::Cut| c.next_weight);
     let stopped = full.cut(cx, settings, cut);
     let (Some(next), true) = (next, gate.is_some_and(|g| g.tunnels)) else {
@@ -816,7 +834,8 @@ pub fn tunnel_labels(cx: &CellComplex, field: &CellField, part: &super::Partitio
             continue;
         }
         let m = 2 + cells.len();
-        let (mut head, mut to, mut cap): (Vec<Vec<u32>>, Vec<u32>, Vec<f64>) = (vec![Vec::new(); m], Vec::new(), Vec::new());
+        let (mut head, mut to, mut cap): (Vec<Vec<u32>>, Vec<u32>, Vec<f64>) =
+            (vec![Vec::new(); m], Vec::new(), Vec::new());
         for &g in &[i, j] {
             for &c in &members[g as usize] {
                 for &k in &cell_portals[c as usize] {
@@ -893,7 +912,12 @@ pub fn tunnel_labels(cx: &CellComplex, field: &CellField, part: &super::Partitio
         // Cells between the least and the largest minimum cut (a tie: a tunnel of uniform
         // section) join the group of the higher peak (then the larger volume, then the
         // lower id): not the group they came from, which the collapse order chose.
-        let volume = |g: u32| -> f64 { members[g as usize].iter().map(|&c| cx.cells[c as usize].poly.volume()).sum() };
+        let volume = |g: u32| -> f64 {
+            members[g as usize]
+                .iter()
+                .map(|&c| cx.cells[c as usize].poly.volume())
+                .sum()
+        };
         let tie = match peak[i as usize].total_cmp(&peak[j as usize]) {
             Ordering::Greater => 0,
             Ordering::Less => 1,
