@@ -25,6 +25,10 @@ fn find(p: &mut [usize], mut x: usize) -> usize {
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
+    if args.get(1).map(String::as_str) == Some("tunnels") {
+        tunnels();
+        return;
+    }
     let half = match args.get(1).map(String::as_str) {
         Some("report") => Half::Report,
         _ => Half::Tune,
@@ -48,6 +52,8 @@ fn main() {
                 .ok()
                 .and_then(|d| d.parse().ok())
                 .unwrap_or(0.5),
+            vector_opening: std::env::var("VECTOR").is_ok_and(|v| v != "0"),
+            tunnels: std::env::var("TUNNELS").is_ok_and(|v| v != "0"),
         }),
         _ => None,
     };
@@ -72,6 +78,20 @@ fn main() {
                 text += "\n";
             }
             std::fs::write(format!("{dir}/{}.obj", case.name), text).unwrap();
+            continue;
+        }
+        if std::env::var("ROOMS").is_ok() {
+            // The truth: each room's boxes (generator frame) and the doorways.
+            println!("== {} rooms", case.name);
+            if let portalfind::suite::Membership::Boxes { rooms, solids, .. } = &case.truth.membership {
+                for (r, bs) in case.truth.rooms.iter().zip(rooms) {
+                    println!("   {:24} {:?}", r.name, bs);
+                }
+                println!("   solids {:?}", solids);
+            }
+            for d in &case.truth.doorways {
+                println!("   door {:?} {:?}", d.rooms, d.polygon);
+            }
             continue;
         }
         let model = case.load().unwrap();
@@ -223,12 +243,13 @@ fn main() {
                     "intra".to_string()
                 };
                 println!(
-                    "  w {:.3} peaks {:.2}/{:.2} saddle {:.2} Ap {:.2} sec {:.1}/{:.1} min/Ap {:.2} max/Ap {:.2} vol {:.1}/{:.1} {} {}",
+                    "  w {:.3} peaks {:.2}/{:.2} saddle {:.2} Ap {:.2} Av {:.2} sec {:.1}/{:.1} min/Ap {:.2} max/Ap {:.2} vol {:.1}/{:.1} {} {}",
                     s.weight,
                     s.peaks[0],
                     s.peaks[1],
                     s.saddle,
                     s.portal_area,
+                    s.opening,
                     s.projected[0],
                     s.projected[1],
                     ratio,
@@ -469,6 +490,182 @@ pub fn leak_diag(model: &portalfind::model::Model, cx: &portalfind::complex::Cel
                     let _ = tol;
                 }
             }
+        }
+    }
+}
+
+fn rotate_789(p: [f64; 3]) -> [f64; 3] {
+    let (sx, cx) = 7f64.to_radians().sin_cos();
+    let (sy, cy) = 8f64.to_radians().sin_cos();
+    let (sz, cz) = 9f64.to_radians().sin_cos();
+    let [mut x, mut y, mut z] = p;
+    (y, z) = (cx * y - sx * z, sx * y + cx * z);
+    (x, z) = (cy * x + sy * z, -sy * x + cy * z);
+    [cz * x - sz * y, sz * x + cz * y, z]
+}
+
+fn unrotate_789(p: [f64; 3]) -> [f64; 3] {
+    let (sx, cx) = 7f64.to_radians().sin_cos();
+    let (sy, cy) = 8f64.to_radians().sin_cos();
+    let (sz, cz) = 9f64.to_radians().sin_cos();
+    let [mut x, mut y, mut z] = p;
+    (x, y) = (cz * x + sz * y, -sz * x + cz * y);
+    (x, z) = (cy * x - sy * z, sy * x + cy * z);
+    (y, z) = (cx * y + sx * z, -sx * y + cx * z);
+    [x, y, z]
+}
+
+/// Area and area-weighted centroid (mapped by `back`) of a set of complex portals.
+fn surface(
+    cx: &portalfind::complex::CellComplex,
+    ks: &[usize],
+    back: &dyn Fn([f64; 3]) -> [f64; 3],
+) -> (f64, [f64; 3]) {
+    let (mut a, mut c) = (0.0, [0.0; 3]);
+    for &k in ks {
+        for q in &cx.portals[k].pieces {
+            let (qa, qc) = (q.area(), back(q.centroid()));
+            a += qa;
+            for i in 0..3 {
+                c[i] += qa * qc[i];
+            }
+        }
+    }
+    (a, c.map(|x| x / a))
+}
+
+/// The thesis caverns as shipped, rotated 7°/8°/9° and offset by 1e6, at the default stop:
+/// each final portal (area, centroid mapped back to the shipped frame) and, for the same
+/// pair of final cells, the minimum cut by portal area between the cells of each side
+/// whose field value is at least the geometric mean of the pair's saddle and lower peak
+/// (the cores), over the other cells of the two (the tunnel zone).
+fn tunnels() {
+    use portalfind::decimate::Decimation;
+    use portalfind::decimate::clearance::CellField;
+    type Map = Box<dyn Fn([f64; 3]) -> [f64; 3]>;
+    let variants: Vec<(&str, Map, Map)> = vec![
+        ("shipped", Box::new(|p| p), Box::new(|p| p)),
+        ("rot789", Box::new(rotate_789), Box::new(unrotate_789)),
+        (
+            "offset1e6",
+            Box::new(|p: [f64; 3]| p.map(|x| x + 1e6)),
+            Box::new(|p: [f64; 3]| p.map(|x| x - 1e6)),
+        ),
+    ];
+    let name = std::env::var("MODEL").unwrap_or("caverns".into());
+    for (vname, fwd, back) in &variants {
+        let tm = portalfind::generate::thesis::by_name(&name).unwrap();
+        let verts: Vec<[f64; 3]> = tm.soup.vertices.iter().map(|&p| fwd(p)).collect();
+        let m = portalfind::model::from_soup(tm.name, verts, tm.soup.polygons.clone()).unwrap();
+        let cx = portalfind::pipeline::complex_of(&m).unwrap();
+        let d = Decimation::run(
+            &cx,
+            &Settings {
+                heuristic: HeuristicKind::Aperture,
+                stop: StopRule::Threshold(1.8),
+                ..Settings::default()
+            },
+        );
+        let part = &d.partition;
+        let field = CellField::new(&cx);
+        let peak: Vec<f64> = part
+            .cells
+            .iter()
+            .map(|mc| mc.pieces.iter().map(|p| field.value[p.idx()]).fold(0.0, f64::max))
+            .collect();
+        println!("== {vname}: {} cells", part.len());
+        for mp in part.portals(&cx) {
+            let (i, j) = (part.cell_of(mp.cells[0]).unwrap(), part.cell_of(mp.cells[1]).unwrap());
+            let saddle = mp.portals.iter().map(|&k| field.passage[k]).fold(0.0, f64::max);
+            let level = (saddle * peak[i].min(peak[j])).sqrt();
+            let (fa, fc) = surface(&cx, &mp.portals, back);
+            // Min cut: nodes are the complex cells of i and j; source = cores of i, sink =
+            // cores of j; capacities = portal areas (both directions).
+            let side = |c: portalfind::ids::CellId| part.cell_of(c).filter(|&x| x == i || x == j);
+            let n = cx.cells.len();
+            let (src, snk) = (n, n + 1);
+            let mut adj: Vec<Vec<usize>> = vec![Vec::new(); n + 2];
+            let mut to = Vec::new();
+            let mut cap: Vec<f64> = Vec::new();
+            let add =
+                |adj: &mut Vec<Vec<usize>>, a: usize, b: usize, c: f64, to: &mut Vec<usize>, cap: &mut Vec<f64>| {
+                    adj[a].push(to.len());
+                    to.push(b);
+                    cap.push(c);
+                    adj[b].push(to.len());
+                    to.push(a);
+                    cap.push(c);
+                };
+            let mut portal_edge = Vec::new();
+            for (k, p) in cx.portals.iter().enumerate() {
+                let [a, b] = p.cells;
+                if side(a).is_some() && side(b).is_some() && a != b {
+                    portal_edge.push((k, to.len()));
+                    add(&mut adj, a.idx(), b.idx(), p.area, &mut to, &mut cap);
+                }
+            }
+            let mut cores = [0usize; 2];
+            for (id, _) in cx.active_cells() {
+                if let Some(x) = side(id)
+                    && field.value[id.idx()] >= level
+                {
+                    let t = if x == i { src } else { snk };
+                    cores[(x == j) as usize] += 1;
+                    add(&mut adj, id.idx(), t, f64::INFINITY, &mut to, &mut cap);
+                }
+            }
+            // Edmonds–Karp.
+            let mut flow = 0.0;
+            let reach = loop {
+                let mut prev = vec![usize::MAX; n + 2];
+                let mut seen = vec![false; n + 2];
+                seen[src] = true;
+                let mut q = std::collections::VecDeque::from([src]);
+                while let Some(u) = q.pop_front() {
+                    for &e in &adj[u] {
+                        let v = to[e];
+                        if !seen[v] && cap[e] > 1e-15 {
+                            seen[v] = true;
+                            prev[v] = e;
+                            q.push_back(v);
+                        }
+                    }
+                }
+                if !seen[snk] {
+                    break seen;
+                }
+                let mut b = f64::INFINITY;
+                let mut v = snk;
+                while v != src {
+                    let e = prev[v];
+                    b = b.min(cap[e]);
+                    v = to[e ^ 1];
+                }
+                let mut v = snk;
+                while v != src {
+                    let e = prev[v];
+                    cap[e] -= b;
+                    cap[e ^ 1] += b;
+                    v = to[e ^ 1];
+                }
+                flow += b;
+            };
+            let cut: Vec<usize> = portal_edge
+                .iter()
+                .filter(|&&(k, _)| {
+                    let [a, b] = cx.portals[k].cells;
+                    reach[a.idx()] != reach[b.idx()]
+                })
+                .map(|&(k, _)| k)
+                .collect();
+            let (ca, cc) = surface(&cx, &cut, back);
+            println!(
+                "  pair {i}-{j} final area {fa:6.2} at {:>6.2?} | saddle {saddle:.3} level {level:.3} cores {:?} mincut {flow:6.2} ({ca:6.2}, {} portals) at {:>6.2?}",
+                fc,
+                cores,
+                cut.len(),
+                cc
+            );
         }
     }
 }

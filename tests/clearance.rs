@@ -112,6 +112,77 @@ fn thesis_models_rooms_at_default_stop() {
     assert!(failures.is_empty(), "{failures:#?}");
 }
 
+fn unrotate_789(p: [f64; 3]) -> [f64; 3] {
+    let (sx, cx) = 7f64.to_radians().sin_cos();
+    let (sy, cy) = 8f64.to_radians().sin_cos();
+    let (sz, cz) = 9f64.to_radians().sin_cos();
+    let [mut x, mut y, mut z] = p;
+    (x, y) = (cz * x + sz * y, -sz * x + cz * y);
+    (x, z) = (cy * x - sy * z, sy * x + cy * z);
+    (y, z) = (cx * y + sx * z, -sx * y + cx * z);
+    [x, y, z]
+}
+
+/// The thesis caverns' final portals at the default stop (`aperture`): (area, centroid
+/// mapped back by `back`), sorted by centroid.
+fn cavern_portals(f: impl Fn([f64; 3]) -> [f64; 3], back: impl Fn([f64; 3]) -> [f64; 3]) -> Vec<(f64, [f64; 3])> {
+    let tm = portalfind::generate::thesis::by_name("caverns").unwrap();
+    let verts: Vec<[f64; 3]> = tm.soup.vertices.iter().map(|&p| f(p)).collect();
+    let m = portalfind::model::from_soup(tm.name, verts, tm.soup.polygons.clone()).unwrap();
+    let cx = portalfind::pipeline::complex_of(&m).unwrap();
+    let part = Decimation::run(
+        &cx,
+        &Settings {
+            heuristic: HeuristicKind::Aperture,
+            ..settings(StopRule::Threshold(DEFAULT_RATIO))
+        },
+    )
+    .partition;
+    let mut out: Vec<(f64, [f64; 3])> = part
+        .portals(&cx)
+        .iter()
+        .map(|mp| {
+            let (mut a, mut c) = (0.0, [0.0; 3]);
+            for q in &mp.pieces {
+                let (qa, qc) = (q.area(), back(q.centroid()));
+                a += qa;
+                for k in 0..3 {
+                    c[k] += qa * qc[k];
+                }
+            }
+            (mp.area, c.map(|v| v / a))
+        })
+        .collect();
+    out.sort_by(|x, y| x.1[0].total_cmp(&y.1[0]).then(x.1[1].total_cmp(&y.1[1])));
+    out
+}
+
+/// Thesis 4.3.4's rotation check at the default stop: the caverns rotated 7°/8°/9°, and
+/// offset by 1e6, have the same 7 final portals as shipped (each tunnel's boundary at the
+/// least-area cut between its caves, not where the collapse order put it).
+#[test]
+fn caverns_portals_are_the_same_rotated_and_offset() {
+    let shipped = cavern_portals(|p| p, |p| p);
+    assert_eq!(shipped.len(), 7);
+    for (name, moved) in [
+        ("rotated 7/8/9", cavern_portals(rotate_789, unrotate_789)),
+        (
+            "offset 1e6",
+            cavern_portals(|p| p.map(|v| v + 1e6), |p| p.map(|v| v - 1e6)),
+        ),
+    ] {
+        assert_eq!(moved.len(), 7, "{name}");
+        for ((a, c), (b, d)) in shipped.iter().zip(&moved) {
+            let dist = (0..3).map(|k| (c[k] - d[k]).powi(2)).sum::<f64>().sqrt();
+            println!("{name}: area {a:.4} / {b:.4}, centroids {dist:.2e} apart");
+            assert!(
+                (a - b).abs() <= 1e-6 * a && dist <= 1e-6,
+                "{name}: {a} at {c:?} vs {b} at {d:?}"
+            );
+        }
+    }
+}
+
 #[test]
 #[ignore = "exploration: e1m1 at the default ratio"]
 fn e1m1_table() {

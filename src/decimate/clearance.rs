@@ -71,7 +71,16 @@
 //! function of the stopped merge's components, so a run to the end applies it to a copy
 //! of the state where the stopped run stops (one pass for the weight curve).
 //! Both tests are ratios (areas, volumes), so the gate is scale-free. With a `cells:N`
-//! stop the gate is off (that stop asks for N cells).
+//! stop the gate is off (that stop asks for N cells). The opening the sections are
+//! compared with is the portals' vector area ([`ApertureGate::vector_opening`]).
+//!
+//! **Boundaries** ([`ApertureGate::tunnels`]). Along a tunnel of nearly uniform width
+//! the field has no sharp pass, so where two rooms' fronts meet is decided by the order
+//! of the collapses at weight about 1, which follows the tetrahedra (the thesis caverns
+//! rotated 7°/8°/9° put 4 of 7 portals elsewhere). At a threshold stop, each boundary of
+//! the stopped groups is moved to the least-area cut between the two groups' cores
+//! ([`tunnel_labels`]) and the merge runs again, constrained to the moved groups; the
+//! record (steps, weight curve) is the second run's, so `replay` still rebuilds it.
 //!
 //! The weight formula is the heuristic's ([`Clearance`](super::heuristic::Clearance));
 //! this file keeps the field and the engine, which maintains each component's peak and
@@ -101,7 +110,8 @@ pub const DEFAULT_RATIO: f64 = 1.8;
 /// a pair of persistence ≥ 1.1 whose components each hold twice their largest empty ball
 /// is kept apart when the smaller section is at least 1.5 times the opening (projected,
 /// then confirmed by the largest of 5 parallel cuts); at the end, a component whose peak
-/// is below 0.15 of a neighbour's is absorbed into it.
+/// is below 0.15 of a neighbour's is absorbed into it. The opening is the portals' vector
+/// area, and the stopped boundaries are moved to the least-area cuts between the rooms.
 pub const DEFAULT_APERTURE: ApertureGate = ApertureGate {
     from: 1.1,
     ratio: 1.5,
@@ -110,6 +120,8 @@ pub const DEFAULT_APERTURE: ApertureGate = ApertureGate {
     slices: 5,
     slab: SLAB,
     slab_peak: 0.5,
+    vector_opening: true,
+    tunnels: true,
 };
 
 /// The clean-up's slab ratio ([`ApertureGate::slab`]) of [`DEFAULT_APERTURE`].
@@ -364,6 +376,21 @@ struct Link {
 }
 
 impl Link {
+    /// The area of the opening this portal set spans: the norm of its vector area (the
+    /// area of its projection on the plane of its mean normal; for an interface spanning
+    /// a planar rim, the rim's area however the faces fold), or the summed area when the
+    /// vector area degenerates (the same rule as [`Link::frame`]'s normal).
+    fn opening(&self) -> f64 {
+        let l = norm(&self.av);
+        if l > MEAN_NORMAL_REL * self.area && l.is_finite() {
+            l.min(self.area)
+        } else {
+            self.area
+        }
+    }
+}
+
+impl Link {
     const EMPTY: Link = Link {
         saddle: 0.0,
         area: 0.0,
@@ -455,6 +482,8 @@ struct Comp {
     members: Vec<u32>,
     /// The 3D convex hull of the members' vertices, built when first needed.
     hull: Option<Hull3>,
+    /// The group of a constrained run ([`run_inner`]'s `labels`; 0 without).
+    label: u32,
 }
 
 /// A component's links by neighbour, sorted by the neighbour's id: the subset of
@@ -578,6 +607,21 @@ pub struct ApertureGate {
     /// interface of tetrahedron faces zigzags across it and sums to more than the
     /// section, is not a slab and its rooms).
     pub slab_peak: f64,
+    /// Whether the opening the sections are compared with is the portals' *vector* area
+    /// (the norm of the sum of their area-weighted normals, [`Link::opening`]) rather than
+    /// the sum of their areas. The tetrahedra's faces that make up the interface between
+    /// two components zigzag across a doorway, and their summed area exceeds the doorway's
+    /// (by 1.3–2.8 times on the suite's wide openings); the vector area of any surface
+    /// spanning a planar rim is the rim's area, whatever the surface's folds, so it
+    /// measures the opening itself and does not depend on the tetrahedralization.
+    pub vector_opening: bool,
+    /// Whether the boundaries between the stopped merge's components are moved to the
+    /// narrowest section between them ([`tunnel_labels`]) and the merge is run again
+    /// within the moved groups. Along a tunnel of nearly uniform width the field has no
+    /// sharp pass, so where two rooms' fronts meet is decided by the order of collapses at
+    /// weight about 1, i.e. by the tetrahedra; the least-area cut between the rooms' cores
+    /// is a property of the space (and of the faces available to it).
+    pub tunnels: bool,
 }
 
 impl ApertureGate {
@@ -603,6 +647,8 @@ pub struct TraceStep {
     pub saddle: f64,
     /// The portal area between them.
     pub portal_area: f64,
+    /// The portals' vector area ([`ApertureGate::vector_opening`]).
+    pub opening: f64,
     /// The components' projected areas on the portal plane (2D hull of the 3D hull).
     pub projected: [f64; 2],
     /// The volumes.
@@ -620,13 +666,50 @@ pub(crate) fn run(cx: &CellComplex, settings: &Settings, progress: &mut dyn FnMu
         .heuristic()
         .aperture_gate()
         .filter(|_| !matches!(settings.stop, StopRule::Cells(_)));
-    run_inner(cx, settings, gate, None, None, progress)
+    run_moved(cx, settings, gate, None, progress)
+}
+
+/// The merge, then (with a gate that moves boundaries and a `threshold` stop) the merge
+/// again within the groups [`tunnel_labels`] gives, if they differ from the first's.
+fn run_moved(
+    cx: &CellComplex,
+    settings: &Settings,
+    gate: Option<ApertureGate>,
+    mut trace: Option<&mut Vec<TraceStep>>,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Decimation {
+    let field = CellField::new(cx);
+    let first = run_inner(cx, &field, settings, gate, trace.as_deref_mut(), None, None, progress);
+    let StopReason::Threshold { next_weight, .. } = first.stop else {
+        return first;
+    };
+    if !gate.is_some_and(|g| g.tunnels) {
+        return first;
+    }
+    let Some(labels) = tunnel_labels(cx, &field, &first.partition) else {
+        return first;
+    };
+    if let Some(t) = trace.as_deref_mut() {
+        t.clear();
+    }
+    run_inner(
+        cx,
+        &field,
+        settings,
+        gate,
+        trace,
+        None,
+        Some((&labels, next_weight)),
+        progress,
+    )
 }
 
 /// The run to the end (stop `none`) and, from the same pass, the run stopped at
 /// `threshold:r` (a prefix of it up to the first pair popped at or above `r`, which
 /// is where the stopped run would have stopped, followed by the clean-up pass applied to a
-/// copy of the components there; same steps, stop reason and counters).
+/// copy of the components there; same steps, stop reason and counters). With a gate that
+/// moves boundaries, the pass runs twice when the first one's stopped groups move: the
+/// second keeps to the moved groups until the cut, then goes on freely to the end.
 pub(crate) fn run_to_end_and_cut(
     cx: &CellComplex,
     settings: &Settings,
@@ -638,18 +721,234 @@ pub(crate) fn run_to_end_and_cut(
         ..*settings
     };
     let gate = settings.heuristic.heuristic().aperture_gate();
+    let field = CellField::new(cx);
     let mut cut = None;
-    let full = run_inner(cx, &full_settings, gate, None, Some((r, &mut cut)), progress);
+    let full = run_inner(
+        cx,
+        &field,
+        &full_settings,
+        gate,
+        None,
+        Some((r, &mut cut)),
+        None,
+        progress,
+    );
+    let next = cut.as_ref().map(|c: &super::Cut| c.next_weight);
+    let stopped = full.cut(cx, settings, cut);
+    let (Some(next), true) = (next, gate.is_some_and(|g| g.tunnels)) else {
+        return (stopped, full);
+    };
+    let Some(labels) = tunnel_labels(cx, &field, &stopped.partition) else {
+        return (stopped, full);
+    };
+    let mut cut = None;
+    let full = run_inner(
+        cx,
+        &field,
+        &full_settings,
+        gate,
+        None,
+        Some((r, &mut cut)),
+        Some((&labels, next)),
+        &mut |_, _| {},
+    );
     let stopped = full.cut(cx, settings, cut);
     (stopped, full)
 }
 
 /// The merge with `gate` (overriding the heuristic's), recording every pair it looks at
-/// with the components' projected sections (slow: for diagnostics).
+/// with the components' projected sections (slow: for diagnostics). With boundaries moved,
+/// the record is the second pass's.
 pub fn trace(cx: &CellComplex, settings: &Settings, gate: Option<ApertureGate>) -> (Decimation, Vec<TraceStep>) {
     let mut t = Vec::new();
-    let d = run_inner(cx, settings, gate, Some(&mut t), None, &mut |_, _| {});
+    let d = run_moved(cx, settings, gate, Some(&mut t), &mut |_, _| {});
     (d, t)
+}
+
+/// The groups of a stopped merge with each boundary moved to the narrowest section between
+/// the two groups (`None` when no cell moves). For each pair of neighbouring groups
+/// `(i, j)` (in order of their ids, each seeing the moves of the pairs before it): the
+/// *cores* are the cells of each group whose field value is at least the geometric mean
+/// of the pair's saddle (the highest passage between them) and the lower of their peaks;
+/// the boundary becomes the minimum cut, by portal area, between the cores of `i` and
+/// those of `j` through the other cells of the two groups (the cells reachable from `i`'s
+/// cores in the residual graph of a maximum flow join `i`, those that reach `j`'s cores
+/// join `j`, any other — between two cuts of least area — the group of the higher peak). A ratio of two field values of the model picks
+/// the cores, and the cut is the least-area surface the complex offers between them,
+/// whatever the order in which the merge reached it: a tunnel's boundary lands at its
+/// narrowest section.
+pub fn tunnel_labels(cx: &CellComplex, field: &CellField, part: &super::Partition) -> Option<Vec<u32>> {
+    let n = cx.cells.len();
+    let mut label = vec![u32::MAX; n];
+    let mut members: Vec<Vec<u32>> = vec![Vec::new(); part.len()];
+    for (i, c) in part.cells.iter().enumerate() {
+        for p in &c.pieces {
+            label[p.idx()] = i as u32;
+            members[i].push(p.0);
+        }
+    }
+    let peak: Vec<f64> = members
+        .iter()
+        .map(|m| m.iter().map(|&c| field.value[c as usize]).fold(0.0, f64::max))
+        .collect();
+    let mut cell_portals: Vec<Vec<u32>> = vec![Vec::new(); n];
+    for (k, p) in cx.portals.iter().enumerate() {
+        let [a, b] = p.cells;
+        if a != b && label[a.idx()] != u32::MAX && label[b.idx()] != u32::MAX {
+            cell_portals[a.idx()].push(k as u32);
+            cell_portals[b.idx()].push(k as u32);
+        }
+    }
+    let pairs: Vec<(u32, u32, f64)> = part
+        .portals(cx)
+        .iter()
+        .filter_map(|mp| {
+            let (i, j) = (part.cell_of(mp.cells[0])?, part.cell_of(mp.cells[1])?);
+            let s = mp.portals.iter().map(|&k| field.passage[k]).fold(0.0, f64::max);
+            Some((i.min(j) as u32, i.max(j) as u32, s))
+        })
+        .collect();
+    let mut moved = false;
+    let mut node: std::collections::HashMap<u32, u32> = Default::default();
+    for (i, j, saddle) in pairs {
+        let level = (saddle * peak[i as usize].min(peak[j as usize])).sqrt();
+        if !(level.is_finite() && level > 0.0) {
+            continue;
+        }
+        // Nodes 0 (source: i's cores) and 1 (sink: j's cores), then the other cells.
+        node.clear();
+        let mut cells: Vec<u32> = Vec::new();
+        let mut cores = [false; 2];
+        for &g in &[i, j] {
+            for &c in &members[g as usize] {
+                if field.value[c as usize] >= level {
+                    node.insert(c, (g == j) as u32);
+                    cores[(g == j) as usize] = true;
+                } else {
+                    node.insert(c, 2 + cells.len() as u32);
+                    cells.push(c);
+                }
+            }
+        }
+        if !(cores[0] && cores[1]) || cells.is_empty() {
+            continue;
+        }
+        let m = 2 + cells.len();
+        let (mut head, mut to, mut cap): (Vec<Vec<u32>>, Vec<u32>, Vec<f64>) =
+            (vec![Vec::new(); m], Vec::new(), Vec::new());
+        for &g in &[i, j] {
+            for &c in &members[g as usize] {
+                for &k in &cell_portals[c as usize] {
+                    let [a, b] = cx.portals[k as usize].cells;
+                    let o = if a.0 == c { b.0 } else { a.0 };
+                    // Each portal once (from its lower cell), both ends in the pair.
+                    let (Some(&x), Some(&y)) = (node.get(&c), node.get(&o)) else {
+                        continue;
+                    };
+                    if c > o || x == y {
+                        continue;
+                    }
+                    let area = cx.portals[k as usize].area;
+                    for (u, v) in [(x, y), (y, x)] {
+                        head[u as usize].push(to.len() as u32);
+                        to.push(v);
+                        cap.push(area);
+                    }
+                }
+            }
+        }
+        // Edmonds–Karp: shortest augmenting paths, in the edges' order (deterministic).
+        let mut prev = vec![u32::MAX; m];
+        let reach = loop {
+            prev.iter_mut().for_each(|p| *p = u32::MAX);
+            let mut seen = vec![false; m];
+            seen[0] = true;
+            let mut queue = std::collections::VecDeque::from([0u32]);
+            while let Some(u) = queue.pop_front() {
+                if u == 1 {
+                    break;
+                }
+                for &e in &head[u as usize] {
+                    let v = to[e as usize];
+                    if !seen[v as usize] && cap[e as usize] > 0.0 {
+                        seen[v as usize] = true;
+                        prev[v as usize] = e;
+                        queue.push_back(v);
+                    }
+                }
+            }
+            if !seen[1] {
+                break seen;
+            }
+            let mut bottleneck = f64::INFINITY;
+            let mut v = 1u32;
+            while v != 0 {
+                let e = prev[v as usize] as usize;
+                bottleneck = bottleneck.min(cap[e]);
+                v = to[e ^ 1];
+            }
+            let mut v = 1u32;
+            while v != 0 {
+                let e = prev[v as usize] as usize;
+                cap[e] -= bottleneck;
+                cap[e ^ 1] += bottleneck;
+                v = to[e ^ 1];
+            }
+        };
+        // The cells that reach the sink in the residual graph.
+        let mut to_sink = vec![false; m];
+        to_sink[1] = true;
+        let mut stack = vec![1u32];
+        while let Some(v) = stack.pop() {
+            for &e in &head[v as usize] {
+                // Edge e: v -> u; its reverse u -> v has residual capacity cap[e ^ 1].
+                let u = to[e as usize];
+                if !to_sink[u as usize] && cap[e as usize ^ 1] > 0.0 {
+                    to_sink[u as usize] = true;
+                    stack.push(u);
+                }
+            }
+        }
+        // Cells between the least and the largest minimum cut (a tie: a tunnel of uniform
+        // section) join the group of the higher peak (then the larger volume, then the
+        // lower id): not the group they came from, which the collapse order chose.
+        let volume = |g: u32| -> f64 {
+            members[g as usize]
+                .iter()
+                .map(|&c| cx.cells[c as usize].poly.volume())
+                .sum()
+        };
+        let tie = match peak[i as usize].total_cmp(&peak[j as usize]) {
+            Ordering::Greater => 0,
+            Ordering::Less => 1,
+            Ordering::Equal => (volume(j) > volume(i)) as usize,
+        };
+        let mut next: [Vec<u32>; 2] = [Vec::new(), Vec::new()];
+        for &g in &[i, j] {
+            for &c in &members[g as usize] {
+                let x = node[&c] as usize;
+                let side = if x < 2 {
+                    x
+                } else if reach[x] {
+                    0
+                } else if to_sink[x] {
+                    1
+                } else {
+                    tie
+                };
+                let want = [i, j][side];
+                if want != g {
+                    moved = true;
+                }
+                label[c as usize] = want;
+                next[side].push(c);
+            }
+        }
+        let [a, b] = next;
+        members[i as usize] = a;
+        members[j as usize] = b;
+    }
+    moved.then_some(label)
 }
 
 /// The projected area of a component on `frame` (2D convex hull of its 3D hull).
@@ -733,18 +1032,25 @@ fn cut_area(poly: &crate::geom::ConvexPolyhedron, frame: &Frame, t: f64) -> f64 
     if a.is_finite() { a.max(0.0) } else { 0.0 }
 }
 
+/// The merge. With `labels` (a group per cell, and the first pass's next weight), a pair
+/// of components of different groups is never collapsed while the run is *constrained*:
+/// until it stops (a `threshold` stop: at the first pair of one group at or above it, or
+/// with the first pass's next weight when only pairs across groups are left) or, in a run
+/// to the end, until the cut is recorded (then every pair is weighed again).
+#[allow(clippy::too_many_arguments)]
 fn run_inner(
     cx: &CellComplex,
+    field: &CellField,
     settings: &Settings,
     gate: Option<ApertureGate>,
     mut trace: Option<&mut Vec<TraceStep>>,
     mut cut: Option<(f64, &mut Option<super::Cut>)>,
+    labels: Option<(&[u32], f64)>,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Decimation {
     let t0 = Instant::now();
     let h = settings.heuristic.heuristic();
     let sections = gate.is_some() || trace.is_some();
-    let field = CellField::new(cx);
     let n = cx.cells.len();
     let mut comps: Vec<Comp> = vec![Comp::default(); n];
     let mut cells = 0usize;
@@ -755,6 +1061,7 @@ fn run_inner(
         k.peak = field.value[id.idx()];
         k.volume = c.poly.volume();
         k.pieces = 1;
+        k.label = labels.map_or(0, |(l, _)| l[id.idx()]);
         if sections {
             k.members.push(id.0);
         }
@@ -827,6 +1134,43 @@ fn run_inner(
     stats.init_seconds = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     let mut steps = Vec::new();
+    // Every pair again (after a constrained stretch, whose pairs across groups were
+    // dropped from the heap).
+    let push_all = |comps: &[Comp], heap: &mut BinaryHeap<Entry>, stats: &mut DecimationStats| {
+        for (a, c) in comps.iter().enumerate() {
+            if !c.alive {
+                continue;
+            }
+            for (&b, l) in &c.links {
+                if (a as u32) < b {
+                    stats.weights_computed += 1;
+                    heap.push(Entry {
+                        weight: weigh(c, &comps[b as usize], l),
+                        saddle: l.saddle,
+                        a: a as u32,
+                        b,
+                    });
+                }
+            }
+        }
+    };
+    // The stopped run's clean-up, on a copy of the state where it stops.
+    let cut_here = |comps: &[Comp], cells: usize, steps: usize, w: f64, stats: &DecimationStats, constrained: bool| {
+        let mut cleanup = Vec::new();
+        if let Some(g) = gate {
+            let (mut copy, mut left) = (comps.to_vec(), cells);
+            clean_up(cx, &mut copy, &g, constrained, &mut cleanup, &mut left, &mut |_, _| {});
+        }
+        super::Cut {
+            steps,
+            next_weight: w,
+            weights_computed: stats.weights_computed,
+            reweighs_skipped: stats.reweighs_skipped,
+            collapse_seconds: t1.elapsed().as_secs_f64(),
+            cleanup,
+        }
+    };
+    let mut constrained = labels.is_some();
     let stop = loop {
         if let StopRule::Cells(target) = settings.stop
             && cells <= target
@@ -834,7 +1178,25 @@ fn run_inner(
             break StopReason::Cells { target };
         }
         let Some(e) = heap.pop() else {
-            break StopReason::Exhausted;
+            if !constrained {
+                break StopReason::Exhausted;
+            }
+            // Only pairs across groups are left: where the first pass stopped.
+            let next = labels.map_or(f64::NAN, |(_, w)| w);
+            if let StopRule::Threshold(r) = settings.stop {
+                break StopReason::Threshold {
+                    threshold: r,
+                    next_weight: next,
+                };
+            }
+            if let Some((_, c)) = cut.as_mut()
+                && c.is_none()
+            {
+                **c = Some(cut_here(&comps, cells, steps.len(), next, &stats, true));
+            }
+            constrained = false;
+            push_all(&comps, &mut heap, &mut stats);
+            continue;
         };
         let (a, b) = (e.a as usize, e.b as usize);
         // Stale entries: a side merged away, or the weight or saddle changed since.
@@ -845,6 +1207,10 @@ fn run_inner(
             continue;
         };
         if l.saddle.to_bits() != e.saddle.to_bits() || weigh(&comps[a], &comps[b], &l).to_bits() != e.weight.to_bits() {
+            continue;
+        }
+        if constrained && comps[a].label != comps[b].label {
+            // Across groups: weighed again when a side changes, or after the constraint.
             continue;
         }
         let w = e.weight;
@@ -861,20 +1227,11 @@ fn run_inner(
             && c.is_none()
             && w >= *r
         {
-            // The stopped run's clean-up, on a copy of the state where it stops.
-            let mut cleanup = Vec::new();
-            if let Some(g) = gate {
-                let (mut copy, mut left) = (comps.clone(), cells);
-                clean_up(cx, &mut copy, &g, &mut cleanup, &mut left, &mut |_, _| {});
+            **c = Some(cut_here(&comps, cells, steps.len(), w, &stats, constrained));
+            if constrained {
+                constrained = false;
+                push_all(&comps, &mut heap, &mut stats);
             }
-            **c = Some(super::Cut {
-                steps: steps.len(),
-                next_weight: w,
-                weights_computed: stats.weights_computed,
-                reweighs_skipped: stats.reweighs_skipped,
-                collapse_seconds: t1.elapsed().as_secs_f64(),
-                cleanup,
-            });
         }
         let gated = gate.filter(|g| {
             w >= g.from && g.holds_ball(comps[a].peak, comps[a].volume) && g.holds_ball(comps[b].peak, comps[b].volume)
@@ -927,18 +1284,20 @@ fn run_inner(
             let frame = l.frame();
             let mut pa = section(cx, &mut comps[a], &frame);
             let mut pb = section(cx, &mut comps[b], &frame);
-            let mut kept = gated.is_some_and(|g| pa.min(pb) >= g.ratio * l.area);
+            // The opening the sections are compared with.
+            let opening = |g: &ApertureGate| if g.vector_opening { l.opening() } else { l.area };
+            let mut kept = gated.is_some_and(|g| pa.min(pb) >= g.ratio * opening(&g));
             if let Some(g) = gated.filter(|g| kept && g.slices > 0) {
                 // Cuts parallel to the portal, the smaller projection first.
                 let (first, second) = if pa <= pb { (a, b) } else { (b, a) };
                 let s1 = sliced_section(cx, &comps[first], &frame, g.slices);
-                let s2 = if s1 >= g.ratio * l.area {
+                let s2 = if s1 >= g.ratio * opening(&g) {
                     sliced_section(cx, &comps[second], &frame, g.slices)
                 } else {
                     f64::INFINITY
                 };
                 (pa, pb) = if first == a { (s1, s2) } else { (s2, s1) };
-                kept = pa.min(pb) >= g.ratio * l.area;
+                kept = pa.min(pb) >= g.ratio * opening(&g);
             }
             if let Some(t) = trace.as_deref_mut() {
                 t.push(TraceStep {
@@ -948,6 +1307,7 @@ fn run_inner(
                     peaks: [comps[a].peak, comps[b].peak],
                     saddle: l.saddle,
                     portal_area: l.area,
+                    opening: l.opening(),
                     projected: [pa, pb],
                     volumes: [comps[a].volume, comps[b].volume],
                     kept,
@@ -1029,7 +1389,7 @@ fn run_inner(
         }
     };
     if let Some(g) = gate {
-        clean_up(cx, &mut comps, &g, &mut steps, &mut cells, progress);
+        clean_up(cx, &mut comps, &g, constrained, &mut steps, &mut cells, progress);
     }
     stats.steps = steps.len();
     stats.collapse_seconds = t1.elapsed().as_secs_f64();
@@ -1057,6 +1417,7 @@ fn clean_up(
     cx: &CellComplex,
     comps: &mut [Comp],
     g: &ApertureGate,
+    constrained: bool,
     steps: &mut Vec<Step>,
     cells: &mut usize,
     progress: &mut dyn FnMut(usize, usize),
@@ -1084,7 +1445,12 @@ fn clean_up(
             let mut best: Option<(f64, u32)> = None;
             for (j, l) in links {
                 let o = &comps[j as usize];
-                if !o.alive || o.peak <= 0.0 || peak > o.peak || best.is_some_and(|(a, _)| l.area <= a) {
+                if !o.alive
+                    || o.peak <= 0.0
+                    || peak > o.peak
+                    || best.is_some_and(|(a, _)| l.area <= a)
+                    || (constrained && o.label != comps[i as usize].label)
+                {
                     continue;
                 }
                 let dominated = peak < g.dominance * o.peak;
@@ -1380,6 +1746,78 @@ mod tests {
         assert!((a - 2.0 * std::f64::consts::SQRT_2).abs() < 1e-9, "{a}");
     }
 
+    /// The partition of the active cells of `cx` into the connected parts of `group`'s
+    /// classes (recorded as collapses, survivors the lower ids, and replayed).
+    fn partition_of(cx: &CellComplex, group: impl Fn(CellId) -> usize) -> super::super::Partition {
+        let mut owner: Vec<u32> = (0..cx.cells.len() as u32).collect();
+        let mut left = cx.active_cells().count();
+        let mut steps = Vec::new();
+        for p in &cx.portals {
+            let [a, b] = p.cells;
+            if a == b || !cx.cells[a.idx()].active() || !cx.cells[b.idx()].active() || group(a) != group(b) {
+                continue;
+            }
+            let (ra, rb) = (find(&mut owner, a.0), find(&mut owner, b.0));
+            if ra == rb {
+                continue;
+            }
+            let (x, y) = (ra.min(rb), ra.max(rb));
+            owner[y as usize] = x;
+            left -= 1;
+            steps.push(Step {
+                a: CellId(x),
+                b: CellId(y),
+                weight: 1.0,
+                cells_remaining: left,
+                portal_area: p.area,
+                projected: [0.0, 0.0],
+            });
+        }
+        super::super::Decimation::replay(cx, &steps).expect("collapses of live components")
+    }
+
+    #[test]
+    fn tunnel_labels_move_a_boundary_to_the_least_area_cut_and_keep_the_rooms() {
+        // Two 4 × 4 × 3 rooms joined through a 1 m thick wall by a 1 × 2 door corridor
+        // (x ∈ [4, 5]); the boundary placed by the cells' centroids at several x.
+        let s = crate::generate::scenes::two_rooms();
+        let m = crate::model::from_soup("two rooms", s.vertices, s.polygons).unwrap();
+        let cx = crate::pipeline::complex_of(&m).unwrap();
+        let x = |c: CellId| cx.cells[c.idx()].poly.centroid()[0];
+        let area = |p: &super::super::Partition| p.portals(&cx).iter().map(|mp| mp.area).sum::<f64>();
+        let field = CellField::new(&cx);
+        let mut moves = 0;
+        for at in [4.1, 4.3, 4.5, 4.7, 4.9, 5.1, 5.3] {
+            let part = partition_of(&cx, |c| (x(c) >= at) as usize);
+            if part.len() != 2 {
+                continue;
+            }
+            let Some(labels) = tunnel_labels(&cx, &field, &part) else {
+                continue;
+            };
+            moves += 1;
+            let moved = partition_of(&cx, |c| labels[c.idx()] as usize);
+            assert_eq!(moved.len(), 2, "at {at}: two connected groups");
+            // Every cell of either room keeps its side; the new boundary is no larger than
+            // the old one, and no smaller than the door's section (1 × 2).
+            for (id, _) in cx.active_cells() {
+                if x(id) < 4.0 {
+                    assert_eq!(labels[id.idx()], 0, "at {at}: cell {id:?} of the first room");
+                } else if x(id) > 5.0 {
+                    assert_eq!(labels[id.idx()], 1, "at {at}: cell {id:?} of the second room");
+                }
+            }
+            let (before, after) = (area(&part), area(&moved));
+            assert!(
+                after <= before * (1.0 + 1e-12) && after >= 2.0 * (1.0 - 1e-9),
+                "at {at}: {before} -> {after}"
+            );
+            // Moved again, it stays (the least-area cut is a fixed point).
+            assert!(tunnel_labels(&cx, &field, &moved).is_none(), "at {at}");
+        }
+        assert!(moves > 0, "some boundary moved");
+    }
+
     fn comp(peak: f64, links: &[(u32, f64)]) -> Comp {
         let mut c = Comp {
             alive: true,
@@ -1411,7 +1849,7 @@ mod tests {
             slab: 0.0,
             ..DEFAULT_APERTURE
         };
-        clean_up(&cx, &mut comps, &g, &mut steps, &mut cells, &mut |_, _| {});
+        clean_up(&cx, &mut comps, &g, false, &mut steps, &mut cells, &mut |_, _| {});
         let pairs: Vec<(u32, u32)> = steps.iter().map(|s| (s.a.0, s.b.0)).collect();
         // 3 first (lowest peak; its only neighbour 2 dominates it), then 2 into 1.
         assert_eq!(pairs, vec![(2, 3), (1, 2)]);
@@ -1449,6 +1887,7 @@ mod tests {
             &cx,
             &mut comps,
             &DEFAULT_APERTURE,
+            false,
             &mut steps,
             &mut cells,
             &mut |_, _| {},
@@ -1477,7 +1916,7 @@ mod tests {
                 fresh[y as usize].links.insert(x, link(area).reversed());
             }
             let (mut steps, mut cells) = (Vec::new(), 3);
-            clean_up(&cx, &mut fresh, &g, &mut steps, &mut cells, &mut |_, _| {});
+            clean_up(&cx, &mut fresh, &g, false, &mut steps, &mut cells, &mut |_, _| {});
             assert!(steps.is_empty());
         }
     }
