@@ -631,7 +631,24 @@ fn bench_fuzz(
 
 /// Errors are printed as their context chain (file, line, element, fix), without a
 /// backtrace even when `RUST_BACKTRACE` is set, and exit with status 1.
+/// Caps glibc's malloc arenas at two. The complex's stages allocate on rayon's
+/// worker threads; with glibc's default (8 arenas per core) that memory stays in
+/// the workers' arenas and the decimation's main-thread allocations cannot reuse
+/// it. Measured on 13×12 rooms (95k triangles), two runs each in one go: peak
+/// 452 → 418 MB, wall time unchanged (6.22/6.28 s default, 6.56/6.27 s capped).
+/// An explicit `MALLOC_ARENA_MAX` in the environment wins.
+fn cap_malloc_arenas() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    if std::env::var_os("MALLOC_ARENA_MAX").is_none() {
+        // SAFETY: mallopt only sets an allocator parameter; called before any thread starts.
+        unsafe {
+            libc::mallopt(libc::M_ARENA_MAX, 2);
+        }
+    }
+}
+
 fn main() -> std::process::ExitCode {
+    cap_malloc_arenas();
     // The pictures' font is compiled in; register it before anything draws.
     portalfind::output::plot::register_fonts();
     install_interrupt_handler();
