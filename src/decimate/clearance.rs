@@ -678,21 +678,30 @@ fn run_moved(
     mut trace: Option<&mut Vec<TraceStep>>,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Decimation {
+    // The reported times cover the whole decimation: the field and the first pass's weights
+    // in `init_seconds`; the first pass's collapses, the moved boundaries and the second
+    // pass's collapses in `collapse_seconds` (the second pass's weights are added to the
+    // first's), so `run`'s stage lines add up to the decimation's time.
+    let t = Instant::now();
     let field = CellField::new(cx);
-    let first = run_inner(cx, &field, settings, gate, trace.as_deref_mut(), None, None, progress);
+    let field_seconds = t.elapsed().as_secs_f64();
+    let mut first = run_inner(cx, &field, settings, gate, trace.as_deref_mut(), None, None, progress);
+    first.stats.init_seconds += field_seconds;
     let StopReason::Threshold { next_weight, .. } = first.stop else {
         return first;
     };
     if !gate.is_some_and(|g| g.tunnels) {
         return first;
     }
+    let t = Instant::now();
     let Some(labels) = tunnel_labels(cx, &field, &first.partition) else {
         return first;
     };
+    let label_seconds = t.elapsed().as_secs_f64();
     if let Some(t) = trace.as_deref_mut() {
         t.clear();
     }
-    run_inner(
+    let mut second = run_inner(
         cx,
         &field,
         settings,
@@ -701,7 +710,10 @@ fn run_moved(
         None,
         Some((&labels, next_weight)),
         progress,
-    )
+    );
+    second.stats.init_seconds += first.stats.init_seconds;
+    second.stats.collapse_seconds += first.stats.collapse_seconds + label_seconds;
+    second
 }
 
 /// The run to the end (stop `none`) and, from the same pass, the run stopped at
