@@ -15,6 +15,13 @@ use portalfind::experiment::eval::locate_in_complex;
 use portalfind::suite::{self, Half};
 use std::collections::BTreeSet;
 
+use portalfind::base::rigid::{rotate_789, rotate_xyz_deg_inverse};
+
+/// The inverse of [`rotate_789`].
+fn unrotate_789(p: [f64; 3]) -> [f64; 3] {
+    rotate_xyz_deg_inverse(p, [7.0, 8.0, 9.0])
+}
+
 fn find(p: &mut [usize], mut x: usize) -> usize {
     while p[x] != x {
         p[x] = p[p[x]];
@@ -492,27 +499,6 @@ pub fn leak_diag(model: &portalfind::model::Model, cx: &portalfind::complex::Cel
             }
         }
     }
-}
-
-fn rotate_789(p: [f64; 3]) -> [f64; 3] {
-    let (sx, cx) = 7f64.to_radians().sin_cos();
-    let (sy, cy) = 8f64.to_radians().sin_cos();
-    let (sz, cz) = 9f64.to_radians().sin_cos();
-    let [mut x, mut y, mut z] = p;
-    (y, z) = (cx * y - sx * z, sx * y + cx * z);
-    (x, z) = (cy * x + sy * z, -sy * x + cy * z);
-    [cz * x - sz * y, sz * x + cz * y, z]
-}
-
-fn unrotate_789(p: [f64; 3]) -> [f64; 3] {
-    let (sx, cx) = 7f64.to_radians().sin_cos();
-    let (sy, cy) = 8f64.to_radians().sin_cos();
-    let (sz, cz) = 9f64.to_radians().sin_cos();
-    let [mut x, mut y, mut z] = p;
-    (x, y) = (cz * x + sz * y, -sz * x + cz * y);
-    (x, z) = (cy * x - sy * z, sy * x + cy * z);
-    (y, z) = (cx * y + sx * z, -sx * y + cx * z);
-    [x, y, z]
 }
 
 /// Area and area-weighted centroid (mapped by `back`) of a set of complex portals.

@@ -8,6 +8,13 @@ use portalfind::complex::CellComplex;
 use portalfind::decimate::clearance::DEFAULT_RATIO;
 use portalfind::decimate::{Decimation, HeuristicKind, Partition, Settings, StopRule};
 
+use portalfind::base::rigid::{rotate_789, rotate_xyz_deg_inverse};
+
+/// The inverse of [`rotate_789`].
+fn unrotate_789(p: [f64; 3]) -> [f64; 3] {
+    rotate_xyz_deg_inverse(p, [7.0, 8.0, 9.0])
+}
+
 fn settings(stop: StopRule) -> Settings {
     Settings {
         heuristic: HeuristicKind::Clearance,
@@ -32,23 +39,12 @@ fn isolated(cx: &CellComplex, part: &Partition, rooms: &[Vec<[f64; 3]>]) -> usiz
         .count()
 }
 
-fn rotate_789(p: [f64; 3]) -> [f64; 3] {
-    let (sx, cx) = 7f64.to_radians().sin_cos();
-    let (sy, cy) = 8f64.to_radians().sin_cos();
-    let (sz, cz) = 9f64.to_radians().sin_cos();
-    let [mut x, mut y, mut z] = p;
-    (y, z) = (cx * y - sx * z, sx * y + cx * z);
-    (x, z) = (cy * x + sy * z, -sy * x + cy * z);
-    [cz * x - sz * y, sz * x + cz * y, z]
-}
-
-/// (rooms isolated, final cells, final portal pairs) at the default stop.
-fn at_default_stop(
+/// A thesis model moved by `f`, its complex, and `h`'s partition at the default stop.
+fn thesis_at_default_stop(
     h: HeuristicKind,
-    name: &str,
-    f: impl Fn([f64; 3]) -> [f64; 3],
-) -> (usize, usize, usize, usize, usize) {
-    let tm = portalfind::generate::thesis::by_name(name).unwrap();
+    tm: &portalfind::generate::thesis::ThesisModel,
+    f: &impl Fn([f64; 3]) -> [f64; 3],
+) -> (CellComplex, Partition) {
     let verts: Vec<[f64; 3]> = tm.soup.vertices.iter().map(|&p| f(p)).collect();
     let m = portalfind::model::from_soup(tm.name, verts, tm.soup.polygons.clone()).unwrap();
     let cx = portalfind::pipeline::complex_of(&m).unwrap();
@@ -60,6 +56,17 @@ fn at_default_stop(
         },
     )
     .partition;
+    (cx, part)
+}
+
+/// (rooms isolated, final cells, final portal pairs) at the default stop.
+fn at_default_stop(
+    h: HeuristicKind,
+    name: &str,
+    f: impl Fn([f64; 3]) -> [f64; 3],
+) -> (usize, usize, usize, usize, usize) {
+    let tm = portalfind::generate::thesis::by_name(name).unwrap();
+    let (cx, part) = thesis_at_default_stop(h, &tm, &f);
     let rooms: Vec<Vec<[f64; 3]>> = tm
         .truth
         .rooms
@@ -112,32 +119,11 @@ fn thesis_models_rooms_at_default_stop() {
     assert!(failures.is_empty(), "{failures:#?}");
 }
 
-fn unrotate_789(p: [f64; 3]) -> [f64; 3] {
-    let (sx, cx) = 7f64.to_radians().sin_cos();
-    let (sy, cy) = 8f64.to_radians().sin_cos();
-    let (sz, cz) = 9f64.to_radians().sin_cos();
-    let [mut x, mut y, mut z] = p;
-    (x, y) = (cz * x + sz * y, -sz * x + cz * y);
-    (x, z) = (cy * x - sy * z, sy * x + cy * z);
-    (y, z) = (cx * y + sx * z, -sx * y + cx * z);
-    [x, y, z]
-}
-
 /// The thesis caverns' final portals at the default stop (`aperture`): (area, centroid
 /// mapped back by `back`), sorted by centroid.
 fn cavern_portals(f: impl Fn([f64; 3]) -> [f64; 3], back: impl Fn([f64; 3]) -> [f64; 3]) -> Vec<(f64, [f64; 3])> {
     let tm = portalfind::generate::thesis::by_name("caverns").unwrap();
-    let verts: Vec<[f64; 3]> = tm.soup.vertices.iter().map(|&p| f(p)).collect();
-    let m = portalfind::model::from_soup(tm.name, verts, tm.soup.polygons.clone()).unwrap();
-    let cx = portalfind::pipeline::complex_of(&m).unwrap();
-    let part = Decimation::run(
-        &cx,
-        &Settings {
-            heuristic: HeuristicKind::Aperture,
-            ..settings(StopRule::Threshold(DEFAULT_RATIO))
-        },
-    )
-    .partition;
+    let (cx, part) = thesis_at_default_stop(HeuristicKind::Aperture, &tm, &f);
     let mut out: Vec<(f64, [f64; 3])> = part
         .portals(&cx)
         .iter()

@@ -444,6 +444,18 @@ fn noisy_wall_sliver_is_a_membrane_not_a_leak() {
     );
 }
 
+/// Suite case `seed` of `family` with vertex noise `noise` of the diagonal (the stress
+/// table's variant), and its complex.
+fn noisy_suite_case(family: portalfind::suite::Family, seed: u64, noise: f64) -> (Model, CellComplex) {
+    use portalfind::suite::stress::{Variant, apply};
+    let c = portalfind::suite::case(family, seed).expect("a suite case");
+    let (vs, ps) = apply(Variant::Noise(noise), &c.model.vertices, &c.model.polygons);
+    let m = from_soup("noisy suite case", vs, ps).expect("model");
+    let t = Tetrahedralization::build(&m.vertices).expect("tetra");
+    let cx = CellComplex::build(&m, &t);
+    (m, cx)
+}
+
 /// caverns-1 (marching-cubes blobs, watertight) with vertex noise 1e-6 of the diagonal:
 /// a wall's split of an unsplit tetrahedron was refused because its neighbour's
 /// subdivided face would not be convex, and the neighbour was visited (and cut by the same
@@ -452,13 +464,7 @@ fn noisy_wall_sliver_is_a_membrane_not_a_leak() {
 /// retried after later splits by the same plane; the complex validates.
 #[test]
 fn refused_split_is_retried_after_its_neighbour_is_cut() {
-    use portalfind::suite::stress::{Variant, apply};
-    use portalfind::suite::{Family, case};
-    let c = case(Family::Caverns, 1).expect("caverns-1");
-    let (vs, ps) = apply(Variant::Noise(1e-6), &c.model.vertices, &c.model.polygons);
-    let m = from_soup("noisy caverns", vs, ps).expect("model");
-    let t = Tetrahedralization::build(&m.vertices).expect("tetra");
-    let cx = CellComplex::build(&m, &t);
+    let (m, cx) = noisy_suite_case(portalfind::suite::Family::Caverns, 1, 1e-6);
     cx.check_valid().unwrap_or_else(|e| panic!("complex check: {e}"));
     cx.validate(&m).unwrap_or_else(|e| panic!("complex validate: {e}"));
 }
@@ -471,13 +477,7 @@ fn refused_split_is_retried_after_its_neighbour_is_cut() {
 /// Faces of such thin cells nearly parallel to the polygon now take its coverage.
 #[test]
 fn polygon_inside_a_thin_wedge_covers_its_faces() {
-    use portalfind::suite::stress::{Variant, apply};
-    use portalfind::suite::{Family, case};
-    let c = case(Family::Thesis, 0).expect("four_room_optimized");
-    let (vs, ps) = apply(Variant::Noise(1e-5), &c.model.vertices, &c.model.polygons);
-    let m = from_soup("noisy", vs, ps).expect("model");
-    let t = Tetrahedralization::build(&m.vertices).expect("tetra");
-    let cx = CellComplex::build(&m, &t);
+    let (m, cx) = noisy_suite_case(portalfind::suite::Family::Thesis, 0, 1e-5);
     cx.validate(&m).unwrap_or_else(|e| panic!("complex validate: {e}"));
     assert_eq!(cx.stats.leaks, 0, "{:?}", cx.leaks);
     assert_eq!(cx.stats.interior_regions, 1);

@@ -734,37 +734,30 @@ pub(crate) fn run_to_end_and_cut(
     };
     let gate = settings.heuristic.heuristic().aperture_gate();
     let field = CellField::new(cx);
-    let mut cut = None;
-    let full = run_inner(
-        cx,
-        &field,
-        &full_settings,
-        gate,
-        None,
-        Some((r, &mut cut)),
-        None,
-        progress,
-    );
-    let next = cut.as_ref().map(|c: &super::Cut| c.next_weight);
-    let stopped = full.cut(cx, settings, cut);
+    // One pass to the end, cut where `threshold:r` stops: (stopped, full, next weight).
+    let pass = |labels: Option<(&[u32], f64)>, progress: &mut dyn FnMut(usize, usize)| {
+        let mut cut = None;
+        let full = run_inner(
+            cx,
+            &field,
+            &full_settings,
+            gate,
+            None,
+            Some((r, &mut cut)),
+            labels,
+            progress,
+        );
+        let next = cut.as_ref().map(|c: &super::Cut| c.next_weight);
+        (full.cut(cx, settings, cut), full, next)
+    };
+    let (stopped, full, next) = pass(None, progress);
     let (Some(next), true) = (next, gate.is_some_and(|g| g.tunnels)) else {
         return (stopped, full);
     };
     let Some(labels) = tunnel_labels(cx, &field, &stopped.partition) else {
         return (stopped, full);
     };
-    let mut cut = None;
-    let full = run_inner(
-        cx,
-        &field,
-        &full_settings,
-        gate,
-        None,
-        Some((r, &mut cut)),
-        Some((&labels, next)),
-        &mut |_, _| {},
-    );
-    let stopped = full.cut(cx, settings, cut);
+    let (stopped, full, _) = pass(Some((&labels, next)), &mut |_, _| {});
     (stopped, full)
 }
 
