@@ -602,6 +602,79 @@ fn rel_link(out: &Path, file: &str) -> String {
     }
 }
 
+/// The room accuracy on the generated suite, from the files `portalfind bench accuracy`
+/// wrote under `out/accuracy/` (absent: no section): the "all families" rows of the full
+/// bench (`accuracy/table.md`, the thesis heuristics and the new ones, both halves) and of
+/// each later round (`accuracy/roundN/table.md`), without their time column (timings stay
+/// out of committed files), then the time-against-error plot and the pictures.
+fn accuracy_section(out: &Path) -> String {
+    let dir = out.join("accuracy");
+    let Ok(full) = std::fs::read_to_string(dir.join("table.md")) else {
+        return String::new();
+    };
+    let mut tables = vec![("accuracy/table.md".to_string(), full)];
+    let mut rounds: Vec<(u32, String)> = std::fs::read_dir(&dir)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter_map(|d| {
+            let name = d.file_name().to_string_lossy().into_owned();
+            let n = name.strip_prefix("round")?.parse().ok()?;
+            Some((n, name))
+        })
+        .collect();
+    rounds.sort();
+    for (_, name) in rounds {
+        if let Ok(t) = std::fs::read_to_string(dir.join(&name).join("table.md")) {
+            tables.push((format!("accuracy/{name}/table.md"), t));
+        }
+    }
+    let mut s = String::new();
+    let _ = writeln!(s, "## Rooms on the generated suite (`portalfind bench accuracy`)\n");
+    let _ = writeln!(
+        s,
+        "66 generated models with ground truth; even seeds are the **tune** half, odd seeds \
+         the **report** half (never used for a choice). Rows over all families, per table \
+         file as `bench accuracy` wrote it; the later rounds rerun the default heuristics \
+         after a change (what each changed: [accuracy/README.md](accuracy/README.md) and \
+         each round's README). Per-family rows, volumetric scores and run times are in the \
+         files.\n"
+    );
+    for (file, text) in &tables {
+        let _ = writeln!(s, "From [{file}]({file}):\n");
+        for line in text.lines() {
+            let cols: Vec<&str> = line.split('|').collect();
+            // | config | half | family | ... | time |: keep the header, the rule and the
+            // "all" rows, without the last (time) column.
+            let keep =
+                cols.len() > 4 && (cols[3].trim() == "all" || cols[3].trim() == "family" || cols[3].starts_with("---"));
+            if keep {
+                let _ = writeln!(s, "{}|", cols[..cols.len() - 2].join("|"));
+            }
+        }
+        s.push('\n');
+    }
+    if dir.join("time_vs_error.png").exists() {
+        let _ = writeln!(s, "![time against error](accuracy/time_vs_error.png)\n");
+    }
+    let mut pictures: Vec<String> = std::fs::read_dir(dir.join("pictures"))
+        .into_iter()
+        .flatten()
+        .flatten()
+        .map(|d| d.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".svg"))
+        .collect();
+    pictures.sort();
+    if !pictures.is_empty() {
+        let _ = writeln!(s, "Models at the default stop (`aperture`, `threshold:1.8`):\n");
+        for p in &pictures {
+            let _ = writeln!(s, "![{p}](accuracy/pictures/{p})");
+        }
+        s.push('\n');
+    }
+    s
+}
+
 fn readme_text(report: &Report, opts: &RunOptions) -> String {
     let mut s = String::new();
     let build = if cfg!(debug_assertions) { "debug" } else { "release" };
@@ -712,6 +785,7 @@ fn readme_text(report: &Report, opts: &RunOptions) -> String {
             );
         }
     }
+    s.push_str(&accuracy_section(&opts.out));
     for o in &report.outcomes {
         let e = &o.eval;
         let _ = writeln!(s, "## [{n}]({n}/)\n", n = e.experiment);
