@@ -1122,25 +1122,8 @@ fn run_inner(
             saddle: l.saddle,
         }))
     };
-    let mut heap = BinaryHeap::with_capacity(stats.initial_pairs * 2);
-    for (a, c) in comps.iter().enumerate() {
-        for (&b, l) in &c.links {
-            if (a as u32) < b {
-                stats.weights_computed += 1;
-                heap.push(Entry {
-                    weight: weigh(c, &comps[b as usize], l),
-                    saddle: l.saddle,
-                    a: a as u32,
-                    b,
-                });
-            }
-        }
-    }
-    stats.init_seconds = t0.elapsed().as_secs_f64();
-    let t1 = Instant::now();
-    let mut steps = Vec::new();
-    // Every pair again (after a constrained stretch, whose pairs across groups were
-    // dropped from the heap).
+    // Every live pair: at the start, and again after a constrained stretch (whose pairs
+    // across groups were dropped from the heap). Only live components have links.
     let push_all = |comps: &[Comp], heap: &mut BinaryHeap<Entry>, stats: &mut DecimationStats| {
         for (a, c) in comps.iter().enumerate() {
             if !c.alive {
@@ -1159,6 +1142,11 @@ fn run_inner(
             }
         }
     };
+    let mut heap = BinaryHeap::with_capacity(stats.initial_pairs * 2);
+    push_all(&comps, &mut heap, &mut stats);
+    stats.init_seconds = t0.elapsed().as_secs_f64();
+    let t1 = Instant::now();
+    let mut steps = Vec::new();
     // The stopped run's clean-up, on a copy of the state where it stops.
     let cut_here = |comps: &[Comp], cells: usize, steps: usize, w: f64, stats: &DecimationStats, constrained: bool| {
         let mut cleanup = Vec::new();
