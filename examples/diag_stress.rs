@@ -47,6 +47,98 @@ fn main() {
     let m = portalfind::model::from_soup(&c.name, vs, ps).expect("load");
     let cx = portalfind::pipeline::complex_of_unchecked(&m).expect("complex");
     println!("{} {v}: {:#?}", c.name, cx.stats);
+    let gap = portalfind::suite::stress::widest_gap(&m);
+    println!(
+        "closed {} (open edges {}, T-junctions {}, non-manifold {}), widest gap {gap:.3e} = {:.3e} of the diagonal",
+        portalfind::suite::stress::is_closed(&m),
+        m.report.open_edges,
+        m.report.t_junctions,
+        m.report.non_manifold_edges,
+        gap / m.tolerances.scale
+    );
+    // DIAG_SEAL=k1,k2,..: seal openings narrower than k × the widest gap (a fresh complex each).
+    if let Ok(ks) = std::env::var("DIAG_SEAL") {
+        for k in ks.split(',').map(|k| k.parse::<f64>().unwrap()) {
+            let mut c2 = portalfind::pipeline::complex_of_unchecked(&m).expect("complex");
+            let sealed = c2.seal_holes(&m, k * gap);
+            println!(
+                "seal {k} x gap = {:.3e}: {} openings sealed (widest {:.3e}), leaks {}, active cells {}",
+                k * gap,
+                sealed.len(),
+                sealed.iter().map(|s| s.width).fold(0.0, f64::max),
+                c2.stats.leaks,
+                c2.stats.active_cells
+            );
+        }
+    }
+    // DIAG_ROOMS=1: the aperture merge's steps (`run`'s default decimation) that join or
+    // keep apart two components holding samples of different rooms.
+    if std::env::var("DIAG_ROOMS").is_ok() {
+        use portalfind::decimate::{HeuristicKind, Settings};
+        let mut settings = Settings {
+            heuristic: HeuristicKind::Aperture,
+            ..Default::default()
+        };
+        settings.stop = settings.heuristic.default_stop();
+        let gate = settings.heuristic.heuristic().aperture_gate();
+        let (dec, steps) = portalfind::decimate::clearance::trace(&cx, &settings, gate);
+        let mut rooms: std::collections::HashMap<u32, std::collections::BTreeSet<usize>> = Default::default();
+        for (r, room) in c.truth.rooms.iter().enumerate() {
+            for cell in portalfind::experiment::eval::locate_in_complex(&cx, &room.samples)
+                .into_iter()
+                .flatten()
+            {
+                rooms.entry(cell.0).or_default().insert(r);
+            }
+        }
+        let mut parent: std::collections::HashMap<u32, u32> = Default::default();
+        fn find(p: &mut std::collections::HashMap<u32, u32>, mut x: u32) -> u32 {
+            while let Some(&q) = p.get(&x) {
+                if q == x {
+                    break;
+                }
+                x = q;
+            }
+            x
+        }
+        for (i, st) in steps.iter().enumerate() {
+            let (a, b) = (find(&mut parent, st.a.0), find(&mut parent, st.b.0));
+            let (ra, rb) = (
+                rooms.get(&a).cloned().unwrap_or_default(),
+                rooms.get(&b).cloned().unwrap_or_default(),
+            );
+            if !ra.is_empty() && !rb.is_empty() && ra != rb {
+                println!(
+                    "step {i}: rooms {ra:?} + {rb:?} kept {} w {:.4} peaks [{:.4}, {:.4}] saddle {:.4} portal {:.4} opening {:.4} projected [{:.3}, {:.3}] volumes [{:.3}, {:.3}]",
+                    st.kept,
+                    st.weight,
+                    st.peaks[0],
+                    st.peaks[1],
+                    st.saddle,
+                    st.portal_area,
+                    st.opening,
+                    st.projected[0],
+                    st.projected[1],
+                    st.volumes[0],
+                    st.volumes[1]
+                );
+            }
+            if !st.kept {
+                let (lo, hi) = (a.min(b), a.max(b));
+                parent.insert(hi, lo);
+                let mut u = rooms.remove(&hi).unwrap_or_default();
+                u.extend(rooms.remove(&lo).unwrap_or_default());
+                if !u.is_empty() {
+                    rooms.insert(lo, u);
+                }
+            }
+        }
+        println!(
+            "stop {:?}, final portals {}",
+            dec.stop,
+            dec.partition.portals(&cx).len()
+        );
+    }
     println!("check_valid: {:?}", cx.check_valid().err().map(|e| e.to_string()));
     println!("validate: {:?}", cx.validate(&m).err().map(|e| e.to_string()));
     for l in &cx.leaks {

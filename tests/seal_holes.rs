@@ -187,3 +187,57 @@ fn auto_sealing_closes_the_cracks_of_a_closed_cavern() {
         }
     }
 }
+
+#[test]
+fn noise_opens_the_cracks_of_t_junctions_and_sealing_at_four_times_the_widest_gap_closes_them() {
+    // Tune-half thesis models 0 (four_room_optimized) and 2 (four_room_distorted) have
+    // T-junctions: vertices a rounding away from the long edges beside them. Vertex
+    // noise moves each such vertex off its edge, a real crack about as wide as the noise,
+    // which the stress table reports (input not closed, its widest gap) and through which
+    // the flood fill leaks. Sealing openings narrower than four times that gap
+    // ([`SEAL_GAPS`]; a portal through a crack is wider than the crack) closes every
+    // leak and keeps every room.
+    use portalfind::suite::stress::{SEAL_GAPS, Variant, apply, is_closed, widest_gap};
+    use portalfind::suite::{Family, case};
+    for (seed, noise) in [(0, 1e-4), (0, 1e-2), (2, 1e-3)] {
+        let c = case(Family::Thesis, seed).expect("case");
+        let base = c.load().expect("model");
+        assert!(!is_closed(&base), "{}: T-junctions leave open edges", c.name);
+        assert!(
+            widest_gap(&base) < 1e-12 * base.tolerances.scale,
+            "{}: closed cracks",
+            c.name
+        );
+        let (vs, ps) = apply(Variant::Noise(noise), &c.model.vertices, &c.model.polygons);
+        let m = from_soup(&c.name, vs, ps).expect("model");
+        let gap = widest_gap(&m);
+        let rel = gap / m.tolerances.scale;
+        assert!(
+            rel > noise && rel < 2.0 * noise,
+            "{} noise {noise}: widest gap {rel:.3e} of the diagonal",
+            c.name
+        );
+        let auto = cells(&m, Subdivision::Delaunay, Some(SealSize::Auto));
+        assert_eq!(auto.cx.leaks.len(), 1, "{} noise {noise}: the cracks leak", c.name);
+        let s = cells(&m, Subdivision::Delaunay, Some(SealSize::Units(SEAL_GAPS * gap)));
+        assert!(s.cx.leaks.is_empty(), "{} noise {noise}: sealed", c.name);
+        assert!(!s.sealed.is_empty());
+        for o in &s.sealed {
+            assert!(o.width < SEAL_GAPS * gap, "{o:?}");
+            assert!(s.cx.cells[o.inside.idx()].active());
+        }
+        assert!(
+            s.cx.stats.active_cells < auto.cx.stats.active_cells / 2,
+            "{} noise {noise}: the outside is removed ({} → {})",
+            c.name,
+            auto.cx.stats.active_cells,
+            s.cx.stats.active_cells
+        );
+        for r in &c.truth.rooms {
+            for cell in portalfind::experiment::eval::locate_in_complex(&s.cx, &r.samples) {
+                let cell = cell.expect("a room sample lies in a cell");
+                assert!(s.cx.cells[cell.idx()].active(), "{}: room {} kept", c.name, r.name);
+            }
+        }
+    }
+}

@@ -18,8 +18,13 @@
 //!   rule, and the narrow openings between the kept part and the outside part (and the
 //!   kept part's narrow hull openings) are reported as [`SealedOpening`]s, grouped into
 //!   holes by proximity. If the outside part faces an occluder, some opening wider than
-//!   the size joins the inside to the outside: the region stays whole and its leak is
-//!   reported as without sealing (qbsp's path and pointfile).
+//!   the size joins the inside to the outside, or the outside sees fragments of walls'
+//!   fronts through cracks narrower than the size (vertex noise on a model with
+//!   T-junctions opens a crack along each of them, on both sides of every wall). The
+//!   region is then split into components over the wide portals and each kept by the
+//!   side of the walls it mostly sees, as for cracks (below), provided the removed
+//!   components see less front area than the kept ones; otherwise the region stays
+//!   whole and its leak is reported as without sealing (qbsp's path and pointfile).
 //!
 //! **Cracks, with no size given** ([`CellComplex::seal_cracks_auto`], `run`'s default):
 //! the leaks of closed models (noisy walls, marching-tetrahedra caverns; issue 15) run
@@ -197,7 +202,7 @@ impl Sealer {
         hull_open: &HashMap<CellId, (Vec<ConvexPolygon>, [f64; 3])>,
     ) -> Option<RegionSplit> {
         if self.components {
-            return self.split_components(cx, members, adj, hull_open);
+            return self.split_components(cx, members, adj, hull_open, false);
         }
         // Hull openings: wide ones seed the outside part, narrow ones are sealed.
         let mut narrow_hull: HashMap<CellId, Raw> = HashMap::new();
@@ -236,7 +241,13 @@ impl Sealer {
             }
         }
         if outside.iter().any(|&c| cx.faces_occluder(c)) {
-            return None;
+            // The outside part touches an occluder: either a wide opening joins it to a
+            // room, or it sees fragments of walls' fronts through cracks narrower than
+            // the size (noise on a model with T-junctions opens such cracks along every
+            // T-junction, on both sides of each wall). Decide by the sides the
+            // components over wide portals mostly see, as for cracks, as long as the
+            // fronts seen from the removed components are less than those kept.
+            return self.split_components(cx, members, adj, hull_open, true);
         }
         let mut split = RegionSplit {
             exterior: outside.iter().copied().collect(),
@@ -294,13 +305,17 @@ impl Sealer {
     /// a noisy wall's front). Kept components are joined again through every portal
     /// (narrow passages between rooms stay open). `None` when a kept component still
     /// reaches the hull through a wide opening (a real leak, reported as without
-    /// sealing).
+    /// sealing). With `fragments_only` ([`CellComplex::seal_holes`]' fallback), also
+    /// `None` when the removed components see at least as much front area as the kept
+    /// ones (the fronts the outside sees must be fragments seen through cracks, not a
+    /// room joined to it by a wider opening).
     fn split_components(
         &mut self,
         cx: &CellComplex,
         members: &[CellId],
         adj: &[Vec<(CellId, usize)>],
         hull_open: &HashMap<CellId, (Vec<ConvexPolygon>, [f64; 3])>,
+        fragments_only: bool,
     ) -> Option<RegionSplit> {
         // Components over wide portals, in member order (deterministic).
         let mut comp: HashMap<CellId, usize> = HashMap::new();
@@ -325,19 +340,29 @@ impl Sealer {
             }
             comps.push(sub);
         }
+        let (mut kept_front, mut removed_front) = (0.0, 0.0);
         let kept: Vec<bool> = comps
             .iter()
             .map(|cs| {
-                if !cs.iter().any(|&c| cx.faces_occluder(c)) {
-                    return false;
-                }
                 let (front, back) = cs.iter().fold((0.0, 0.0), |(f, b), &c| {
                     let (f1, b1) = faced_areas(cx, c);
                     (f + f1, b + b1)
                 });
-                front > FRONT_SHARE * (front + back)
+                let keep = cs.iter().any(|&c| cx.faces_occluder(c)) && front > FRONT_SHARE * (front + back);
+                if keep {
+                    kept_front += front;
+                } else {
+                    removed_front += front;
+                }
+                keep
             })
             .collect();
+        // With a size given, the fronts seen from removed components must be fragments
+        // (seen through cracks): a room joined to the outside by an opening wider than
+        // the size must not go with the outside.
+        if fragments_only && removed_front >= kept_front {
+            return None;
+        }
         // Hull openings of kept components: a wide one is a real leak, narrow ones are
         // sealed.
         let mut raw = Vec::new();
