@@ -80,7 +80,13 @@ fn main() {
             ..Default::default()
         };
         settings.stop = settings.heuristic.default_stop();
-        let gate = settings.heuristic.heuristic().aperture_gate();
+        let mut gate = settings.heuristic.heuristic().aperture_gate();
+        // DIAG_GATE=scalar|still|both: the gate without the vector opening, without the
+        // moved boundaries, or without either (the aperture gate before branch h4).
+        if let (Ok(g), Some(a)) = (std::env::var("DIAG_GATE"), gate.as_mut()) {
+            a.vector_opening &= g == "still";
+            a.tunnels &= g == "scalar";
+        }
         let (dec, steps) = portalfind::decimate::clearance::trace(&cx, &settings, gate);
         let mut rooms: std::collections::HashMap<u32, std::collections::BTreeSet<usize>> = Default::default();
         for (r, room) in c.truth.rooms.iter().enumerate() {
@@ -138,6 +144,14 @@ fn main() {
             dec.stop,
             dec.partition.portals(&cx).len()
         );
+        for (r, room) in c.truth.rooms.iter().enumerate() {
+            let finals: std::collections::BTreeSet<Option<usize>> =
+                portalfind::experiment::eval::locate_in_complex(&cx, &room.samples)
+                    .into_iter()
+                    .map(|c| c.and_then(|c| dec.partition.cell_of(c)))
+                    .collect();
+            println!("room {r} ({}): final cells {finals:?}", room.name);
+        }
     }
     println!("check_valid: {:?}", cx.check_valid().err().map(|e| e.to_string()));
     println!("validate: {:?}", cx.validate(&m).err().map(|e| e.to_string()));
