@@ -373,6 +373,11 @@ struct Link {
     /// Whether the saddle is already the refined one ([`CellField::refined_passage`]) of
     /// this portal set.
     refined: bool,
+    /// The weight of this pair's entry in the merge's heap, with this link's saddle, while
+    /// that entry has not been popped (NaN: none; weights are never NaN). Both copies of
+    /// a link carry it. A push of the same key would only add a duplicate (see
+    /// `run_inner`'s `requeue`), so it is skipped.
+    queued: f64,
 }
 
 impl Link {
@@ -397,6 +402,7 @@ impl Link {
         av: [0.0; 3],
         largest: (0.0, [0.0, 0.0, 1.0], [0.0; 3]),
         refined: false,
+        queued: f64::NAN,
     };
 
     /// The link seen from the other side.
@@ -411,8 +417,9 @@ impl Link {
 
     /// The union of two portal sets towards the same neighbour.
     fn fuse(&self, o: &Link) -> Link {
+        let saddle = self.saddle.max(o.saddle);
         Link {
-            saddle: self.saddle.max(o.saddle),
+            saddle,
             area: self.area + o.area,
             av: [self.av[0] + o.av[0], self.av[1] + o.av[1], self.av[2] + o.av[2]],
             largest: if o.largest.0 > self.largest.0 {
@@ -421,6 +428,12 @@ impl Link {
                 self.largest
             },
             refined: false,
+            // This pair's queued entry keeps its key if the saddle keeps its bits.
+            queued: if saddle.to_bits() == self.saddle.to_bits() {
+                self.queued
+            } else {
+                f64::NAN
+            },
         }
     }
 
@@ -522,6 +535,9 @@ impl Links {
     }
     fn get(&self, k: &u32) -> Option<&Link> {
         self.find(*k).ok().map(|i| &self.0[i].1)
+    }
+    fn get_mut(&mut self, k: u32) -> Option<&mut Link> {
+        self.find(k).ok().map(|i| &mut self.0[i].1)
     }
     fn insert(&mut self, k: u32, v: Link) -> Option<Link> {
         match self.find(k) {
@@ -1122,28 +1138,52 @@ fn run_inner(
             saddle: l.saddle,
         }))
     };
+    // Pushes pair `a < b` (a link of both) with weight `w`, unless its entry of the same
+    // key is still in the heap. Proof that skipping such a push leaves every decision
+    // unchanged: it would only add a second copy of an entry already there, and copies of
+    // one key pop consecutively (a key is unique to its pair). The first copy popped is
+    // either stale (then so is the second), or collapses the pair (the second is stale:
+    // `b` is dead), or refines its saddle (a new saddle makes the second stale; the same
+    // saddle gives the same key, pushed again), or keeps it apart or skips it across
+    // groups, which changes no state the second copy could see (the gate's hull is cached
+    // by the first), so the second is kept or skipped again. The only other push between
+    // them is the cut's `push_all`, which pushes the popped pair again (its `queued` was
+    // cleared at the pop). The counters count weighings, which still happen. With a trace
+    // every push happens (the trace records each copy's visit).
+    let dedup = trace.is_none();
+    let requeue = |comps: &mut [Comp], heap: &mut BinaryHeap<Entry>, a: u32, b: u32, w: f64, saddle: f64| {
+        let la = comps[a as usize].links.get_mut(b).expect("a linked neighbour");
+        if dedup && la.queued.to_bits() == w.to_bits() {
+            return;
+        }
+        la.queued = w;
+        comps[b as usize].links.get_mut(a).expect("a linked neighbour").queued = w;
+        heap.push(Entry {
+            weight: w,
+            saddle,
+            a,
+            b,
+        });
+    };
     // Every live pair: at the start, and again after a constrained stretch (whose pairs
     // across groups were dropped from the heap). Only live components have links.
-    let push_all = |comps: &[Comp], heap: &mut BinaryHeap<Entry>, stats: &mut DecimationStats| {
-        for (a, c) in comps.iter().enumerate() {
-            if !c.alive {
+    let push_all = |comps: &mut [Comp], heap: &mut BinaryHeap<Entry>, stats: &mut DecimationStats| {
+        for a in 0..comps.len() {
+            if !comps[a].alive {
                 continue;
             }
-            for (&b, l) in &c.links {
+            for i in 0..comps[a].links.len() {
+                let (b, l) = comps[a].links.0[i];
                 if (a as u32) < b {
                     stats.weights_computed += 1;
-                    heap.push(Entry {
-                        weight: weigh(c, &comps[b as usize], l),
-                        saddle: l.saddle,
-                        a: a as u32,
-                        b,
-                    });
+                    let w = weigh(&comps[a], &comps[b as usize], &l);
+                    requeue(comps, heap, a as u32, b, w, l.saddle);
                 }
             }
         }
     };
     let mut heap = BinaryHeap::with_capacity(stats.initial_pairs * 2);
-    push_all(&comps, &mut heap, &mut stats);
+    push_all(&mut comps, &mut heap, &mut stats);
     stats.init_seconds = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     let mut steps = Vec::new();
@@ -1188,7 +1228,7 @@ fn run_inner(
                 **c = Some(cut_here(&comps, cells, steps.len(), next, &stats, true));
             }
             constrained = false;
-            push_all(&comps, &mut heap, &mut stats);
+            push_all(&mut comps, &mut heap, &mut stats);
             continue;
         };
         let (a, b) = (e.a as usize, e.b as usize);
@@ -1202,6 +1242,9 @@ fn run_inner(
         if l.saddle.to_bits() != e.saddle.to_bits() || weigh(&comps[a], &comps[b], &l).to_bits() != e.weight.to_bits() {
             continue;
         }
+        // This pair's entry has left the heap.
+        comps[a].links.get_mut(e.b).expect("a linked neighbour").queued = f64::NAN;
+        comps[b].links.get_mut(e.a).expect("a linked neighbour").queued = f64::NAN;
         if constrained && comps[a].label != comps[b].label {
             // Across groups: weighed again when a side changes, or after the constraint.
             continue;
@@ -1223,7 +1266,7 @@ fn run_inner(
             **c = Some(cut_here(&comps, cells, steps.len(), w, &stats, constrained));
             if constrained {
                 constrained = false;
-                push_all(&comps, &mut heap, &mut stats);
+                push_all(&mut comps, &mut heap, &mut stats);
             }
         }
         let gated = gate.filter(|g| {
@@ -1262,15 +1305,12 @@ fn run_inner(
             let mut l2 = l;
             l2.saddle = s2;
             l2.refined = true;
+            l2.queued = f64::NAN;
             comps[a].links.insert(e.b, l2);
             comps[b].links.insert(e.a, l2.reversed());
             stats.weights_computed += 1;
-            heap.push(Entry {
-                weight: weigh(&comps[a], &comps[b], &l2),
-                saddle: l2.saddle,
-                a: e.a,
-                b: e.b,
-            });
+            let w2 = weigh(&comps[a], &comps[b], &l2);
+            requeue(&mut comps, &mut heap, e.a, e.b, w2, l2.saddle);
             continue;
         }
         if gated.is_some() || trace.is_some() {
@@ -1373,12 +1413,8 @@ fn run_inner(
             let lk = comps[a].links[&k];
             let (x, y) = if (a as u32) < k { (a as u32, k) } else { (k, a as u32) };
             stats.weights_computed += 1;
-            heap.push(Entry {
-                weight: weigh(&comps[x as usize], &comps[y as usize], &lk),
-                saddle: lk.saddle,
-                a: x,
-                b: y,
-            });
+            let w = weigh(&comps[x as usize], &comps[y as usize], &lk);
+            requeue(&mut comps, &mut heap, x, y, w, lk.saddle);
         }
     };
     if let Some(g) = gate {
