@@ -95,7 +95,7 @@ use rayon::prelude::*;
 use super::MEAN_NORMAL_REL;
 use super::heuristic::{PairContext, sanitize};
 use super::hull3::Hull3;
-use super::project::{Frame, P2, hull2, polygon_area};
+use super::project::{Frame, P2, hull2, hull2_into, polygon_area};
 use super::{Decimation, DecimationStats, Settings, Step, StopReason, StopRule};
 use crate::base::vec::{lerp, norm};
 use crate::complex::CellComplex;
@@ -989,17 +989,33 @@ fn section(cx: &CellComplex, c: &mut Comp, frame: &Frame) -> f64 {
 /// The largest of `k` cuts of a component by planes parallel to `frame`'s, at heights
 /// `(i + 1/2) / k` of its extent along the normal (`i = 0..k`): the summed areas of the
 /// members' convex cuts (the members are disjoint, so the sum is the cut's area).
+///
+/// A member whose vertices all lie on one side of a cut's plane (by the test
+/// [`cut_area`] makes for each edge, `height - t < 0`, which is monotone in the height)
+/// has no crossing edge and adds exactly 0 there, so it is skipped: each member's height
+/// range is taken once, and a cut visits only the members it crosses
+/// (`sliced_section_skips_only_members_that_add_nothing` compares with the plain sum).
 fn sliced_section(cx: &CellComplex, c: &Comp, frame: &Frame, k: usize) -> f64 {
-    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    for &m in &c.members {
-        for f in &cx.cells[m as usize].poly.faces {
-            for v in &f.verts {
-                let h = height(frame, v);
-                lo = lo.min(h);
-                hi = hi.max(h);
+    // Each member's (lowest, highest) vertex height, and whether a height is NaN (then it
+    // is never skipped).
+    let ranges: Vec<(f64, f64, bool)> = c
+        .members
+        .iter()
+        .map(|&m| {
+            let (mut lo, mut hi, mut nan) = (f64::INFINITY, f64::NEG_INFINITY, false);
+            for f in &cx.cells[m as usize].poly.faces {
+                for v in &f.verts {
+                    let h = height(frame, v);
+                    lo = lo.min(h);
+                    hi = hi.max(h);
+                    nan |= h.is_nan();
+                }
             }
-        }
-    }
+            (lo, hi, nan)
+        })
+        .collect();
+    let lo = ranges.iter().fold(f64::INFINITY, |a, r| a.min(r.0));
+    let hi = ranges.iter().fold(f64::NEG_INFINITY, |a, r| a.max(r.1));
     if hi.partial_cmp(&lo) != Some(Ordering::Greater) || k == 0 {
         return 0.0;
     }
@@ -1007,10 +1023,15 @@ fn sliced_section(cx: &CellComplex, c: &Comp, frame: &Frame, k: usize) -> f64 {
     // depend on the thread count; cuts of a large component run in parallel (rayon).
     let slice = |i: usize| {
         let t = lo + (hi - lo) * (i as f64 + 0.5) / k as f64;
-        c.members
-            .iter()
-            .map(|&m| cut_area(&cx.cells[m as usize].poly, frame, t))
-            .sum::<f64>()
+        let (mut pts, mut hull) = (Vec::new(), Vec::new());
+        let mut sum = 0.0;
+        for (&m, &(a, b, nan)) in c.members.iter().zip(&ranges) {
+            if !nan && (b - t < 0.0 || a - t >= 0.0) {
+                continue;
+            }
+            sum += cut_area_with(&cx.cells[m as usize].poly, frame, t, &mut pts, &mut hull);
+        }
+        sum
     };
     let areas: Vec<f64> = if c.members.len() >= PARALLEL_MEMBERS {
         (0..k).into_par_iter().with_max_len(1).map(slice).collect()
@@ -1033,8 +1054,21 @@ fn height(frame: &Frame, p: &[f64; 3]) -> f64 {
 
 /// The area of the cut of a convex polyhedron by the plane at height `t` above `frame`'s
 /// (0 when the plane misses it): the 2D hull of its edges' crossings.
+#[cfg(test)]
 fn cut_area(poly: &crate::geom::ConvexPolyhedron, frame: &Frame, t: f64) -> f64 {
-    let mut pts: Vec<P2> = Vec::new();
+    cut_area_with(poly, frame, t, &mut Vec::new(), &mut Vec::new())
+}
+
+/// [`cut_area`] with scratch buffers for the crossings and their hull (same value).
+fn cut_area_with(
+    poly: &crate::geom::ConvexPolyhedron,
+    frame: &Frame,
+    t: f64,
+    pts: &mut Vec<P2>,
+    hull: &mut Vec<P2>,
+) -> f64 {
+    pts.clear();
+    hull.clear();
     for f in &poly.faces {
         let n = f.verts.len();
         for j in 0..n {
@@ -1049,7 +1083,8 @@ fn cut_area(poly: &crate::geom::ConvexPolyhedron, frame: &Frame, t: f64) -> f64 
     if pts.len() < 3 {
         return 0.0;
     }
-    let a = polygon_area(&hull2(pts));
+    hull2_into(pts, hull);
+    let a = polygon_area(hull);
     if a.is_finite() { a.max(0.0) } else { 0.0 }
 }
 
@@ -1360,8 +1395,8 @@ fn run_inner(
         // Pairs whose weight may change: every neighbour of the side with the lower peak
         // (its partner's peak rises to the higher one), and every neighbour of b (saddle,
         // volume); with the volumes and piece counts in the context, or a gate (whose
-        // sections grew), all of them.
-        let mut touched: Vec<u32> = Vec::new();
+        // sections grew), all of them. Either set is a list of keys in increasing order,
+        // weighed below, once `ca` is back in place.
         for (&k, lk) in &cb.links {
             if k as usize == a {
                 continue;
@@ -1372,11 +1407,7 @@ fn run_inner(
             *entry = entry.fuse(lk);
             m.insert(e.a, entry.reversed());
         }
-        if pa < pb || h.uses_volume() || gate.is_some() {
-            touched.extend(ca.links.keys().copied());
-        } else {
-            touched.extend(cb.links.keys().copied().filter(|&k| k as usize != a));
-        }
+        let all = pa < pb || h.uses_volume() || gate.is_some();
         ca.peak = pa.max(pb);
         ca.volume += cb.volume;
         ca.pieces += cb.pieces;
@@ -1407,14 +1438,37 @@ fn run_inner(
         });
         progress(steps.len(), cells);
         comps[a] = ca;
-        touched.sort_unstable();
-        touched.dedup();
-        for k in touched {
-            let lk = comps[a].links[&k];
-            let (x, y) = if (a as u32) < k { (a as u32, k) } else { (k, a as u32) };
-            stats.weights_computed += 1;
-            let w = weigh(&comps[x as usize], &comps[y as usize], &lk);
-            requeue(&mut comps, &mut heap, x, y, w, lk.saddle);
+        if all {
+            // Every link of the survivor, by position (no search; `requeue`'s rule).
+            for i in 0..comps[a].links.len() {
+                let (k, lk) = comps[a].links.0[i];
+                let (x, y) = if (a as u32) < k { (a as u32, k) } else { (k, a as u32) };
+                stats.weights_computed += 1;
+                let w = weigh(&comps[x as usize], &comps[y as usize], &lk);
+                if dedup && lk.queued.to_bits() == w.to_bits() {
+                    continue;
+                }
+                comps[a].links.0[i].1.queued = w;
+                comps[k as usize]
+                    .links
+                    .get_mut(a as u32)
+                    .expect("a linked neighbour")
+                    .queued = w;
+                heap.push(Entry {
+                    weight: w,
+                    saddle: lk.saddle,
+                    a: x,
+                    b: y,
+                });
+            }
+        } else {
+            for &k in cb.links.keys().filter(|&&k| k as usize != a) {
+                let lk = comps[a].links[&k];
+                let (x, y) = if (a as u32) < k { (a as u32, k) } else { (k, a as u32) };
+                stats.weights_computed += 1;
+                let w = weigh(&comps[x as usize], &comps[y as usize], &lk);
+                requeue(&mut comps, &mut heap, x, y, w, lk.saddle);
+            }
         }
     };
     if let Some(g) = gate {
@@ -1754,6 +1808,93 @@ mod tests {
         assert_eq!(bits(&one.value), bits(&three.value));
         assert_eq!(bits(&one.passage), bits(&three.passage));
         assert_eq!(one.best, three.best);
+    }
+
+    /// The merge skips a push whose identical entry is still queued (`requeue`); with a
+    /// trace it pushes every time. Both must make the same decisions.
+    #[test]
+    fn skipping_duplicate_pushes_changes_no_step() {
+        use crate::decimate::HeuristicKind;
+        let mut steps = 0;
+        for (name, cx) in complexes() {
+            for stop in [StopRule::Threshold(DEFAULT_RATIO), StopRule::None] {
+                let settings = Settings {
+                    heuristic: HeuristicKind::Aperture,
+                    stop,
+                    ..Settings::default()
+                };
+                let fast = run(&cx, &settings, &mut |_, _| {});
+                let (every, _) = trace(&cx, &settings, settings.heuristic.heuristic().aperture_gate());
+                let key = |d: &Decimation| -> Vec<(u32, u32, u64)> {
+                    d.steps.iter().map(|s| (s.a.0, s.b.0, s.weight.to_bits())).collect()
+                };
+                assert_eq!(key(&fast), key(&every), "{name}, {stop:?}: steps");
+                assert_eq!(fast.stats.weights_computed, every.stats.weights_computed, "{name}");
+                assert_eq!(format!("{:?}", fast.stop), format!("{:?}", every.stop), "{name}");
+                steps += fast.steps.len();
+            }
+        }
+        assert!(steps > 1000, "{steps}");
+    }
+
+    /// `sliced_section` as first written (every member cut at every height, the plain sum).
+    fn reference_sliced(cx: &CellComplex, c: &Comp, frame: &Frame, k: usize) -> f64 {
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for &m in &c.members {
+            for f in &cx.cells[m as usize].poly.faces {
+                for v in &f.verts {
+                    let h = height(frame, v);
+                    lo = lo.min(h);
+                    hi = hi.max(h);
+                }
+            }
+        }
+        if hi.partial_cmp(&lo) != Some(Ordering::Greater) || k == 0 {
+            return 0.0;
+        }
+        (0..k)
+            .map(|i| {
+                let t = lo + (hi - lo) * (i as f64 + 0.5) / k as f64;
+                c.members
+                    .iter()
+                    .map(|&m| cut_area(&cx.cells[m as usize].poly, frame, t))
+                    .sum::<f64>()
+            })
+            .fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn sliced_section_skips_only_members_that_add_nothing() {
+        let mut compared = 0;
+        for (name, cx) in complexes() {
+            let active: Vec<u32> = cx.active_cells().map(|(id, _)| id.0).collect();
+            // The whole complex, and runs of consecutive cells (pieces of it).
+            let mut groups = vec![active.clone()];
+            groups.extend(active.chunks(active.len() / 5 + 1).map(<[u32]>::to_vec));
+            for (gi, members) in groups.into_iter().enumerate() {
+                let c = Comp {
+                    members,
+                    ..Comp::default()
+                };
+                for (fi, n) in [[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.3, -0.5, 0.81], [-0.7, 0.1, 0.2]]
+                    .into_iter()
+                    .enumerate()
+                {
+                    let o = cx.cells[c.members[0] as usize].poly.centroid();
+                    let frame = Frame::new(crate::base::vec::normalize(&n), o).unwrap();
+                    for k in [1, 5, 7] {
+                        let (got, want) = (sliced_section(&cx, &c, &frame, k), reference_sliced(&cx, &c, &frame, k));
+                        assert_eq!(
+                            got.to_bits(),
+                            want.to_bits(),
+                            "{name}: group {gi}, frame {fi}, {k} slices"
+                        );
+                        compared += (got > 0.0) as usize;
+                    }
+                }
+            }
+        }
+        assert!(compared > 20, "{compared}");
     }
 
     use crate::geom::ConvexPolyhedron;
