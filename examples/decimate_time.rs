@@ -5,6 +5,10 @@
 //! of the steps (FNV-1a over each step's cells and weight bits), so that two builds can be
 //! compared decision for decision.
 //!
+//! A spec ending in `+curve` runs `Decimation::run_with_curve` (what `portalfind run` does:
+//! the stopped run and the weight curve to the end) and adds the curve's steps to the
+//! fingerprint.
+//!
 //! `cargo run --release --example decimate_time -- MODEL aspect/union/threshold:3 aspect/union/none …`
 
 use portalfind::decimate::{Decimation, Estimator, HeuristicKind, Settings, StopRule};
@@ -26,7 +30,11 @@ fn main() {
         t.elapsed().as_secs_f64()
     );
     for spec in &args[2..] {
-        let parts: Vec<&str> = spec.splitn(3, '/').collect();
+        let (body, curve) = match spec.strip_suffix("+curve") {
+            Some(b) => (b, true),
+            None => (spec.as_str(), false),
+        };
+        let parts: Vec<&str> = body.splitn(3, '/').collect();
         let [h, e, s] = parts[..] else {
             eprintln!("bad spec {spec}");
             std::process::exit(2);
@@ -41,10 +49,14 @@ fn main() {
             ..Settings::default()
         };
         let t = Instant::now();
-        let d = Decimation::run(&cx, &settings);
+        let (d, full) = if curve {
+            Decimation::run_with_curve(&cx, &settings, &mut |_, _| {})
+        } else {
+            (Decimation::run(&cx, &settings), None)
+        };
         let wall = t.elapsed().as_secs_f64();
         let mut fp: u64 = 0xcbf2_9ce4_8422_2325;
-        for st in &d.steps {
+        for st in d.steps.iter().chain(full.iter().flatten()) {
             for x in [st.a.0 as u64, st.b.0 as u64, st.weight.to_bits()] {
                 for b in x.to_le_bytes() {
                     fp = (fp ^ b as u64).wrapping_mul(0x0100_0000_01b3);

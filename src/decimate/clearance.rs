@@ -95,7 +95,7 @@ use rayon::prelude::*;
 use super::MEAN_NORMAL_REL;
 use super::heuristic::{PairContext, sanitize};
 use super::hull3::Hull3;
-use super::project::{Frame, P2, hull2, polygon_area};
+use super::project::{Frame, P2, hull2, hull2_into, polygon_area};
 use super::{Decimation, DecimationStats, Settings, Step, StopReason, StopRule};
 use crate::base::vec::{lerp, norm};
 use crate::complex::CellComplex;
@@ -373,6 +373,11 @@ struct Link {
     /// Whether the saddle is already the refined one ([`CellField::refined_passage`]) of
     /// this portal set.
     refined: bool,
+    /// The weight of this pair's entry in the merge's heap, with this link's saddle, while
+    /// that entry has not been popped (NaN: none; weights are never NaN). Both copies of
+    /// a link carry it. A push of the same key would only add a duplicate (see
+    /// `run_inner`'s `requeue`), so it is skipped.
+    queued: f64,
 }
 
 impl Link {
@@ -397,6 +402,7 @@ impl Link {
         av: [0.0; 3],
         largest: (0.0, [0.0, 0.0, 1.0], [0.0; 3]),
         refined: false,
+        queued: f64::NAN,
     };
 
     /// The link seen from the other side.
@@ -411,8 +417,9 @@ impl Link {
 
     /// The union of two portal sets towards the same neighbour.
     fn fuse(&self, o: &Link) -> Link {
+        let saddle = self.saddle.max(o.saddle);
         Link {
-            saddle: self.saddle.max(o.saddle),
+            saddle,
             area: self.area + o.area,
             av: [self.av[0] + o.av[0], self.av[1] + o.av[1], self.av[2] + o.av[2]],
             largest: if o.largest.0 > self.largest.0 {
@@ -421,6 +428,12 @@ impl Link {
                 self.largest
             },
             refined: false,
+            // This pair's queued entry keeps its key if the saddle keeps its bits.
+            queued: if saddle.to_bits() == self.saddle.to_bits() {
+                self.queued
+            } else {
+                f64::NAN
+            },
         }
     }
 
@@ -522,6 +535,9 @@ impl Links {
     }
     fn get(&self, k: &u32) -> Option<&Link> {
         self.find(*k).ok().map(|i| &self.0[i].1)
+    }
+    fn get_mut(&mut self, k: u32) -> Option<&mut Link> {
+        self.find(k).ok().map(|i| &mut self.0[i].1)
     }
     fn insert(&mut self, k: u32, v: Link) -> Option<Link> {
         match self.find(k) {
@@ -973,17 +989,33 @@ fn section(cx: &CellComplex, c: &mut Comp, frame: &Frame) -> f64 {
 /// The largest of `k` cuts of a component by planes parallel to `frame`'s, at heights
 /// `(i + 1/2) / k` of its extent along the normal (`i = 0..k`): the summed areas of the
 /// members' convex cuts (the members are disjoint, so the sum is the cut's area).
+///
+/// A member whose vertices all lie on one side of a cut's plane (by the test
+/// [`cut_area`] makes for each edge, `height - t < 0`, which is monotone in the height)
+/// has no crossing edge and adds exactly 0 there, so it is skipped: each member's height
+/// range is taken once, and a cut visits only the members it crosses
+/// (`sliced_section_skips_only_members_that_add_nothing` compares with the plain sum).
 fn sliced_section(cx: &CellComplex, c: &Comp, frame: &Frame, k: usize) -> f64 {
-    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    for &m in &c.members {
-        for f in &cx.cells[m as usize].poly.faces {
-            for v in &f.verts {
-                let h = height(frame, v);
-                lo = lo.min(h);
-                hi = hi.max(h);
+    // Each member's (lowest, highest) vertex height, and whether a height is NaN (then it
+    // is never skipped).
+    let ranges: Vec<(f64, f64, bool)> = c
+        .members
+        .iter()
+        .map(|&m| {
+            let (mut lo, mut hi, mut nan) = (f64::INFINITY, f64::NEG_INFINITY, false);
+            for f in &cx.cells[m as usize].poly.faces {
+                for v in &f.verts {
+                    let h = height(frame, v);
+                    lo = lo.min(h);
+                    hi = hi.max(h);
+                    nan |= h.is_nan();
+                }
             }
-        }
-    }
+            (lo, hi, nan)
+        })
+        .collect();
+    let lo = ranges.iter().fold(f64::INFINITY, |a, r| a.min(r.0));
+    let hi = ranges.iter().fold(f64::NEG_INFINITY, |a, r| a.max(r.1));
     if hi.partial_cmp(&lo) != Some(Ordering::Greater) || k == 0 {
         return 0.0;
     }
@@ -991,10 +1023,15 @@ fn sliced_section(cx: &CellComplex, c: &Comp, frame: &Frame, k: usize) -> f64 {
     // depend on the thread count; cuts of a large component run in parallel (rayon).
     let slice = |i: usize| {
         let t = lo + (hi - lo) * (i as f64 + 0.5) / k as f64;
-        c.members
-            .iter()
-            .map(|&m| cut_area(&cx.cells[m as usize].poly, frame, t))
-            .sum::<f64>()
+        let (mut pts, mut hull) = (Vec::new(), Vec::new());
+        let mut sum = 0.0;
+        for (&m, &(a, b, nan)) in c.members.iter().zip(&ranges) {
+            if !nan && (b - t < 0.0 || a - t >= 0.0) {
+                continue;
+            }
+            sum += cut_area_with(&cx.cells[m as usize].poly, frame, t, &mut pts, &mut hull);
+        }
+        sum
     };
     let areas: Vec<f64> = if c.members.len() >= PARALLEL_MEMBERS {
         (0..k).into_par_iter().with_max_len(1).map(slice).collect()
@@ -1017,8 +1054,21 @@ fn height(frame: &Frame, p: &[f64; 3]) -> f64 {
 
 /// The area of the cut of a convex polyhedron by the plane at height `t` above `frame`'s
 /// (0 when the plane misses it): the 2D hull of its edges' crossings.
+#[cfg(test)]
 fn cut_area(poly: &crate::geom::ConvexPolyhedron, frame: &Frame, t: f64) -> f64 {
-    let mut pts: Vec<P2> = Vec::new();
+    cut_area_with(poly, frame, t, &mut Vec::new(), &mut Vec::new())
+}
+
+/// [`cut_area`] with scratch buffers for the crossings and their hull (same value).
+fn cut_area_with(
+    poly: &crate::geom::ConvexPolyhedron,
+    frame: &Frame,
+    t: f64,
+    pts: &mut Vec<P2>,
+    hull: &mut Vec<P2>,
+) -> f64 {
+    pts.clear();
+    hull.clear();
     for f in &poly.faces {
         let n = f.verts.len();
         for j in 0..n {
@@ -1033,7 +1083,8 @@ fn cut_area(poly: &crate::geom::ConvexPolyhedron, frame: &Frame, t: f64) -> f64 
     if pts.len() < 3 {
         return 0.0;
     }
-    let a = polygon_area(&hull2(pts));
+    hull2_into(pts, hull);
+    let a = polygon_area(hull);
     if a.is_finite() { a.max(0.0) } else { 0.0 }
 }
 
@@ -1122,28 +1173,52 @@ fn run_inner(
             saddle: l.saddle,
         }))
     };
+    // Pushes pair `a < b` (a link of both) with weight `w`, unless its entry of the same
+    // key is still in the heap. Proof that skipping such a push leaves every decision
+    // unchanged: it would only add a second copy of an entry already there, and copies of
+    // one key pop consecutively (a key is unique to its pair). The first copy popped is
+    // either stale (then so is the second), or collapses the pair (the second is stale:
+    // `b` is dead), or refines its saddle (a new saddle makes the second stale; the same
+    // saddle gives the same key, pushed again), or keeps it apart or skips it across
+    // groups, which changes no state the second copy could see (the gate's hull is cached
+    // by the first), so the second is kept or skipped again. The only other push between
+    // them is the cut's `push_all`, which pushes the popped pair again (its `queued` was
+    // cleared at the pop). The counters count weighings, which still happen. With a trace
+    // every push happens (the trace records each copy's visit).
+    let dedup = trace.is_none();
+    let requeue = |comps: &mut [Comp], heap: &mut BinaryHeap<Entry>, a: u32, b: u32, w: f64, saddle: f64| {
+        let la = comps[a as usize].links.get_mut(b).expect("a linked neighbour");
+        if dedup && la.queued.to_bits() == w.to_bits() {
+            return;
+        }
+        la.queued = w;
+        comps[b as usize].links.get_mut(a).expect("a linked neighbour").queued = w;
+        heap.push(Entry {
+            weight: w,
+            saddle,
+            a,
+            b,
+        });
+    };
     // Every live pair: at the start, and again after a constrained stretch (whose pairs
     // across groups were dropped from the heap). Only live components have links.
-    let push_all = |comps: &[Comp], heap: &mut BinaryHeap<Entry>, stats: &mut DecimationStats| {
-        for (a, c) in comps.iter().enumerate() {
-            if !c.alive {
+    let push_all = |comps: &mut [Comp], heap: &mut BinaryHeap<Entry>, stats: &mut DecimationStats| {
+        for a in 0..comps.len() {
+            if !comps[a].alive {
                 continue;
             }
-            for (&b, l) in &c.links {
+            for i in 0..comps[a].links.len() {
+                let (b, l) = comps[a].links.0[i];
                 if (a as u32) < b {
                     stats.weights_computed += 1;
-                    heap.push(Entry {
-                        weight: weigh(c, &comps[b as usize], l),
-                        saddle: l.saddle,
-                        a: a as u32,
-                        b,
-                    });
+                    let w = weigh(&comps[a], &comps[b as usize], &l);
+                    requeue(comps, heap, a as u32, b, w, l.saddle);
                 }
             }
         }
     };
     let mut heap = BinaryHeap::with_capacity(stats.initial_pairs * 2);
-    push_all(&comps, &mut heap, &mut stats);
+    push_all(&mut comps, &mut heap, &mut stats);
     stats.init_seconds = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     let mut steps = Vec::new();
@@ -1188,7 +1263,7 @@ fn run_inner(
                 **c = Some(cut_here(&comps, cells, steps.len(), next, &stats, true));
             }
             constrained = false;
-            push_all(&comps, &mut heap, &mut stats);
+            push_all(&mut comps, &mut heap, &mut stats);
             continue;
         };
         let (a, b) = (e.a as usize, e.b as usize);
@@ -1202,6 +1277,9 @@ fn run_inner(
         if l.saddle.to_bits() != e.saddle.to_bits() || weigh(&comps[a], &comps[b], &l).to_bits() != e.weight.to_bits() {
             continue;
         }
+        // This pair's entry has left the heap.
+        comps[a].links.get_mut(e.b).expect("a linked neighbour").queued = f64::NAN;
+        comps[b].links.get_mut(e.a).expect("a linked neighbour").queued = f64::NAN;
         if constrained && comps[a].label != comps[b].label {
             // Across groups: weighed again when a side changes, or after the constraint.
             continue;
@@ -1223,7 +1301,7 @@ fn run_inner(
             **c = Some(cut_here(&comps, cells, steps.len(), w, &stats, constrained));
             if constrained {
                 constrained = false;
-                push_all(&comps, &mut heap, &mut stats);
+                push_all(&mut comps, &mut heap, &mut stats);
             }
         }
         let gated = gate.filter(|g| {
@@ -1262,15 +1340,12 @@ fn run_inner(
             let mut l2 = l;
             l2.saddle = s2;
             l2.refined = true;
+            l2.queued = f64::NAN;
             comps[a].links.insert(e.b, l2);
             comps[b].links.insert(e.a, l2.reversed());
             stats.weights_computed += 1;
-            heap.push(Entry {
-                weight: weigh(&comps[a], &comps[b], &l2),
-                saddle: l2.saddle,
-                a: e.a,
-                b: e.b,
-            });
+            let w2 = weigh(&comps[a], &comps[b], &l2);
+            requeue(&mut comps, &mut heap, e.a, e.b, w2, l2.saddle);
             continue;
         }
         if gated.is_some() || trace.is_some() {
@@ -1320,8 +1395,8 @@ fn run_inner(
         // Pairs whose weight may change: every neighbour of the side with the lower peak
         // (its partner's peak rises to the higher one), and every neighbour of b (saddle,
         // volume); with the volumes and piece counts in the context, or a gate (whose
-        // sections grew), all of them.
-        let mut touched: Vec<u32> = Vec::new();
+        // sections grew), all of them. Either set is a list of keys in increasing order,
+        // weighed below, once `ca` is back in place.
         for (&k, lk) in &cb.links {
             if k as usize == a {
                 continue;
@@ -1332,11 +1407,7 @@ fn run_inner(
             *entry = entry.fuse(lk);
             m.insert(e.a, entry.reversed());
         }
-        if pa < pb || h.uses_volume() || gate.is_some() {
-            touched.extend(ca.links.keys().copied());
-        } else {
-            touched.extend(cb.links.keys().copied().filter(|&k| k as usize != a));
-        }
+        let all = pa < pb || h.uses_volume() || gate.is_some();
         ca.peak = pa.max(pb);
         ca.volume += cb.volume;
         ca.pieces += cb.pieces;
@@ -1367,18 +1438,37 @@ fn run_inner(
         });
         progress(steps.len(), cells);
         comps[a] = ca;
-        touched.sort_unstable();
-        touched.dedup();
-        for k in touched {
-            let lk = comps[a].links[&k];
-            let (x, y) = if (a as u32) < k { (a as u32, k) } else { (k, a as u32) };
-            stats.weights_computed += 1;
-            heap.push(Entry {
-                weight: weigh(&comps[x as usize], &comps[y as usize], &lk),
-                saddle: lk.saddle,
-                a: x,
-                b: y,
-            });
+        if all {
+            // Every link of the survivor, by position (no search; `requeue`'s rule).
+            for i in 0..comps[a].links.len() {
+                let (k, lk) = comps[a].links.0[i];
+                let (x, y) = if (a as u32) < k { (a as u32, k) } else { (k, a as u32) };
+                stats.weights_computed += 1;
+                let w = weigh(&comps[x as usize], &comps[y as usize], &lk);
+                if dedup && lk.queued.to_bits() == w.to_bits() {
+                    continue;
+                }
+                comps[a].links.0[i].1.queued = w;
+                comps[k as usize]
+                    .links
+                    .get_mut(a as u32)
+                    .expect("a linked neighbour")
+                    .queued = w;
+                heap.push(Entry {
+                    weight: w,
+                    saddle: lk.saddle,
+                    a: x,
+                    b: y,
+                });
+            }
+        } else {
+            for &k in cb.links.keys().filter(|&&k| k as usize != a) {
+                let lk = comps[a].links[&k];
+                let (x, y) = if (a as u32) < k { (a as u32, k) } else { (k, a as u32) };
+                stats.weights_computed += 1;
+                let w = weigh(&comps[x as usize], &comps[y as usize], &lk);
+                requeue(&mut comps, &mut heap, x, y, w, lk.saddle);
+            }
         }
     };
     if let Some(g) = gate {
@@ -1718,6 +1808,93 @@ mod tests {
         assert_eq!(bits(&one.value), bits(&three.value));
         assert_eq!(bits(&one.passage), bits(&three.passage));
         assert_eq!(one.best, three.best);
+    }
+
+    /// The merge skips a push whose identical entry is still queued (`requeue`); with a
+    /// trace it pushes every time. Both must make the same decisions.
+    #[test]
+    fn skipping_duplicate_pushes_changes_no_step() {
+        use crate::decimate::HeuristicKind;
+        let mut steps = 0;
+        for (name, cx) in complexes() {
+            for stop in [StopRule::Threshold(DEFAULT_RATIO), StopRule::None] {
+                let settings = Settings {
+                    heuristic: HeuristicKind::Aperture,
+                    stop,
+                    ..Settings::default()
+                };
+                let fast = run(&cx, &settings, &mut |_, _| {});
+                let (every, _) = trace(&cx, &settings, settings.heuristic.heuristic().aperture_gate());
+                let key = |d: &Decimation| -> Vec<(u32, u32, u64)> {
+                    d.steps.iter().map(|s| (s.a.0, s.b.0, s.weight.to_bits())).collect()
+                };
+                assert_eq!(key(&fast), key(&every), "{name}, {stop:?}: steps");
+                assert_eq!(fast.stats.weights_computed, every.stats.weights_computed, "{name}");
+                assert_eq!(format!("{:?}", fast.stop), format!("{:?}", every.stop), "{name}");
+                steps += fast.steps.len();
+            }
+        }
+        assert!(steps > 1000, "{steps}");
+    }
+
+    /// `sliced_section` as first written (every member cut at every height, the plain sum).
+    fn reference_sliced(cx: &CellComplex, c: &Comp, frame: &Frame, k: usize) -> f64 {
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for &m in &c.members {
+            for f in &cx.cells[m as usize].poly.faces {
+                for v in &f.verts {
+                    let h = height(frame, v);
+                    lo = lo.min(h);
+                    hi = hi.max(h);
+                }
+            }
+        }
+        if hi.partial_cmp(&lo) != Some(Ordering::Greater) || k == 0 {
+            return 0.0;
+        }
+        (0..k)
+            .map(|i| {
+                let t = lo + (hi - lo) * (i as f64 + 0.5) / k as f64;
+                c.members
+                    .iter()
+                    .map(|&m| cut_area(&cx.cells[m as usize].poly, frame, t))
+                    .sum::<f64>()
+            })
+            .fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn sliced_section_skips_only_members_that_add_nothing() {
+        let mut compared = 0;
+        for (name, cx) in complexes() {
+            let active: Vec<u32> = cx.active_cells().map(|(id, _)| id.0).collect();
+            // The whole complex, and runs of consecutive cells (pieces of it).
+            let mut groups = vec![active.clone()];
+            groups.extend(active.chunks(active.len() / 5 + 1).map(<[u32]>::to_vec));
+            for (gi, members) in groups.into_iter().enumerate() {
+                let c = Comp {
+                    members,
+                    ..Comp::default()
+                };
+                for (fi, n) in [[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.3, -0.5, 0.81], [-0.7, 0.1, 0.2]]
+                    .into_iter()
+                    .enumerate()
+                {
+                    let o = cx.cells[c.members[0] as usize].poly.centroid();
+                    let frame = Frame::new(crate::base::vec::normalize(&n), o).unwrap();
+                    for k in [1, 5, 7] {
+                        let (got, want) = (sliced_section(&cx, &c, &frame, k), reference_sliced(&cx, &c, &frame, k));
+                        assert_eq!(
+                            got.to_bits(),
+                            want.to_bits(),
+                            "{name}: group {gi}, frame {fi}, {k} slices"
+                        );
+                        compared += (got > 0.0) as usize;
+                    }
+                }
+            }
+        }
+        assert!(compared > 20, "{compared}");
     }
 
     use crate::geom::ConvexPolyhedron;
