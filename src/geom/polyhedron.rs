@@ -1120,6 +1120,41 @@ mod tests {
         }
     }
 
+    /// A diagonal plane a few plane tolerances (well inside the weld distance) off four
+    /// vertices: `cut` takes the plane band (those vertices on a side, crossings next to
+    /// them); the alternatives hold the weld band's cut (those vertices On, no crossing
+    /// near them) and the pure-sign one, each into valid pieces of the same volumes, and
+    /// never the band `cut` chose.
+    #[test]
+    fn cut_alternatives_are_the_other_valid_bands() {
+        let tol = Tolerances::for_scale(3f64.sqrt());
+        let c = ConvexPolyhedron::cuboid(&[0.0; 3], &[1.0; 3]);
+        // x − y = −d: the vertices (0,0,z) and (1,1,z) lie d/√2 in front.
+        let d = 20.0 * tol.plane_abs();
+        let pl = Plane::new([1.0, -1.0, 0.0], d);
+        let Cut::Split(s) = c.cut(&pl, &tol, 9) else {
+            panic!("not split")
+        };
+        assert_eq!(s.on_dist, tol.plane_abs());
+        let alts = c.cut_alternatives(&pl, &tol, 9, s.on_dist);
+        assert!(alts.iter().all(|a| a.on_dist != s.on_dist));
+        let weld = alts
+            .iter()
+            .find(|a| a.on_dist == tol.snap_abs())
+            .expect("the weld band's cut");
+        for a in alts.iter().chain([&*s]) {
+            for p in [&a.front, &a.back] {
+                p.check(&tol).unwrap();
+            }
+            assert_close(a.front.volume() + a.back.volume(), 1.0, 1e-12, "volume");
+            assert_close(a.back.volume(), 0.5, 1e-6, "back volume");
+        }
+        // The weld band puts the four near vertices on the plane: a section through
+        // them, no crossing points beside them.
+        assert_eq!(weld.section.verts.len(), 4);
+        assert!(s.section.verts.len() > 4 || s.front.vertices().len() > weld.front.vertices().len());
+    }
+
     #[test]
     fn cube_split_in_half() {
         for (fr, tol) in frames(3f64.sqrt()) {
