@@ -525,7 +525,7 @@ impl Builder<'_> {
         for (k, (cut, clip_tol)) in cuts.into_iter().enumerate() {
             let Cut::Split(sp) = cut else { continue };
             let (occ, unplaced) = section_occluders(&on, &sp.section, &plane, &clip_tol);
-            let r = match cx.try_commit_split(c, &plane, (*sp).clone(), occ.clone()) {
+            let r = match cx.try_commit_split_any(c, &plane, (*sp).clone(), occ.clone(), &clip_tol) {
                 Some(r) => Some(r),
                 None if k + 1 == n_cuts => Some(cx.commit_split(c, &plane, *sp, occ)),
                 None => None,

@@ -642,7 +642,7 @@ impl CellComplex {
                 })
             })
             .collect();
-        let r = self.try_commit_split(c, &plane, *s, occluders);
+        let r = self.try_commit_split_any(c, &plane, *s, occluders, &relaxed);
         if r.is_some() {
             self.stats.cells_sealed += 1;
         }
@@ -812,7 +812,8 @@ impl CellComplex {
             source: pid,
             faces: 1,
         };
-        self.try_commit_split(c, plane, *s, vec![occ])
+        let tol = self.tol;
+        self.try_commit_split_any(c, plane, *s, vec![occ], &tol)
     }
 
     /// [`commit_split`](Self::commit_split) only if every neighbour across a patch the
@@ -845,6 +846,38 @@ impl CellComplex {
             return None;
         }
         self.joint_split(c, plane, s, occluders, bad)
+    }
+
+    /// [`try_commit_split`](Self::try_commit_split) with the cut `s` (made with `tol`),
+    /// and when that is refused, with each other valid cut of `c` by the same plane
+    /// ([`ConvexPolyhedron::cut_alternatives`]: another On band) in turn, until one
+    /// leaves every neighbour valid. The cut alone cannot know which band its neighbours
+    /// need: a vertex of a shared face a hair off the plane is On for one band, so the
+    /// face is divided through it, and on a side for another, so it is divided next to
+    /// it; only one of the two may leave the neighbour a valid polyhedron (the "polygon
+    /// crosses cell" stress variants under vertex noise). Each attempt is checked as a
+    /// whole, so every committed split is consistent between the cells sharing a face.
+    pub(crate) fn try_commit_split_any(
+        &mut self,
+        c: CellId,
+        plane: &Plane,
+        s: PolyhedronSplit,
+        occluders: Vec<Occluder>,
+        tol: &crate::Tolerances,
+    ) -> Option<(CellId, CellId)> {
+        let chosen = s.on_dist;
+        let tag = *s.back.tags.last().expect("section");
+        if let Some(r) = self.try_commit_split(c, plane, s, occluders.clone()) {
+            return Some(r);
+        }
+        let alts = self.cells[c.idx()].poly.cut_alternatives(plane, tol, tag, chosen);
+        for a in alts {
+            if let Some(r) = self.try_commit_split(c, plane, a, occluders.clone()) {
+                self.stats.alternative_cuts += 1;
+                return Some(r);
+            }
+        }
+        None
     }
 
     /// Splits `c` by `plane` (its cut `s`) together with the neighbours `bad` (and, if

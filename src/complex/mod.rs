@@ -175,6 +175,9 @@ pub struct ComplexStats {
     /// subdividing their face would have left them non-convex beyond tolerance (see
     /// `try_commit_split`).
     pub neighbour_cuts: usize,
+    /// Splits committed with another On band than the cut's first choice, because the
+    /// first left a neighbour invalid (see `try_commit_split_any`).
+    pub alternative_cuts: usize,
     /// Splits that sealed a crack: a cell whose section by a support plane is covered by
     /// that plane's polygons up to cracks, split after placement (see `seal_cracks`).
     pub cells_sealed: usize,

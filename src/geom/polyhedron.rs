@@ -305,6 +305,48 @@ impl ConvexPolyhedron {
     /// three): vertices below the gap are On, above it on their side. The band follows
     /// the data; no constant is added.
     fn cut_in_gaps(&self, plane: &Plane, tol: &Tolerances, new_tag: u32) -> Option<Cut> {
+        // Candidate bands: the geometric middle of each gap (half the first distance when
+        // the lower end is 0), largest ratio first.
+        for eps in self.gap_bands(plane, tol) {
+            if let (c, false) = self.cut_within(&Classifier::with_eps(plane, eps), plane, tol, new_tag) {
+                return Some(c);
+            }
+        }
+        None
+    }
+
+    /// The other valid splits [`cut`](Self::cut) could have chosen: the cuts with each
+    /// On band it tries (plane tolerance, weld distance, none, the largest gaps of the
+    /// vertices' distances), in that order, that split the polyhedron into valid pieces,
+    /// except the one with On distance `chosen` (the one `cut` returned), one per distinct
+    /// band.
+    ///
+    /// `cut` picks the first band whose pieces are valid *for this cell alone*; a split
+    /// must also leave every neighbour whose shared face it divides valid (the neighbour
+    /// subdivides that face with the same band, see
+    /// [`split_face_within`](Self::split_face_within)). When it does not, another band
+    /// often does: a vertex of the shared face that is On with one band and strictly on a
+    /// side with another decides whether the face is split through that vertex or near
+    /// it. The caller tries these in order (deterministic: the bands follow the data).
+    pub fn cut_alternatives(&self, plane: &Plane, tol: &Tolerances, new_tag: u32, chosen: f64) -> Vec<PolyhedronSplit> {
+        let mut eps: Vec<f64> = vec![tol.plane_abs(), tol.snap_abs(), 0.0];
+        eps.extend(self.gap_bands(plane, tol));
+        let mut out: Vec<PolyhedronSplit> = Vec::new();
+        let mut seen: Vec<f64> = vec![chosen];
+        for e in eps {
+            if seen.iter().any(|x| x.to_bits() == e.to_bits()) {
+                continue;
+            }
+            seen.push(e);
+            if let (Cut::Split(s), false) = self.cut_within(&Classifier::with_eps(plane, e), plane, tol, new_tag) {
+                out.push(*s);
+            }
+        }
+        out
+    }
+
+    /// The candidate On bands of [`cut_in_gaps`](Self::cut_in_gaps), best first.
+    fn gap_bands(&self, plane: &Plane, tol: &Tolerances) -> Vec<f64> {
         let cl = Classifier::new(plane, tol);
         let band = tol.snap_abs();
         let mut ds: Vec<f64> = self
@@ -315,8 +357,6 @@ impl ConvexPolyhedron {
             .collect();
         ds.sort_by(f64::total_cmp);
         ds.dedup();
-        // Candidate bands: the geometric middle of each gap (half the first distance when
-        // the lower end is 0), largest ratio first.
         let mut gaps: Vec<(f64, f64)> = ds
             .windows(2)
             .map(|w| {
@@ -329,12 +369,7 @@ impl ConvexPolyhedron {
             .filter(|(r, e)| *r > 2.0 && *e > 0.0)
             .collect();
         gaps.sort_by(|a, b| b.0.total_cmp(&a.0));
-        for &(_, eps) in gaps.iter().take(3) {
-            if let (c, false) = self.cut_within(&Classifier::with_eps(plane, eps), plane, tol, new_tag) {
-                return Some(c);
-            }
-        }
-        None
+        gaps.iter().take(3).map(|g| g.1).collect()
     }
 
     /// [`cut`](Self::cut) with one On distance and no fallback: a cell cut together with
@@ -1083,6 +1118,39 @@ mod tests {
             assert_close(neg.volume(), fr.volume(1.0 / 6.0), 1e-9, fr.name);
             assert_close(t.surface_area(), fr.area(1.5 + 3f64.sqrt() / 2.0), 1e-9, fr.name);
         }
+    }
+
+    /// A diagonal plane a few plane tolerances (well inside the weld distance) off four
+    /// vertices: `cut` takes the plane band; the alternatives hold the weld band's cut
+    /// (those vertices On), each into valid pieces of the same volumes, and never the
+    /// band `cut` chose.
+    #[test]
+    fn cut_alternatives_are_the_other_valid_bands() {
+        let tol = Tolerances::for_scale(3f64.sqrt());
+        let c = ConvexPolyhedron::cuboid(&[0.0; 3], &[1.0; 3]);
+        // x − y = −d: the vertices (0,0,z) and (1,1,z) lie d/√2 in front.
+        let d = 20.0 * tol.plane_abs();
+        let pl = Plane::new([1.0, -1.0, 0.0], d);
+        let Cut::Split(s) = c.cut(&pl, &tol, 9) else {
+            panic!("not split")
+        };
+        assert_eq!(s.on_dist, tol.plane_abs());
+        let alts = c.cut_alternatives(&pl, &tol, 9, s.on_dist);
+        assert!(alts.iter().all(|a| a.on_dist != s.on_dist));
+        let weld = alts
+            .iter()
+            .find(|a| a.on_dist == tol.snap_abs())
+            .expect("the weld band's cut");
+        for a in alts.iter().chain([&*s]) {
+            for p in [&a.front, &a.back] {
+                p.check(&tol).unwrap();
+            }
+            assert_close(a.front.volume() + a.back.volume(), 1.0, 1e-12, "volume");
+            assert_close(a.back.volume(), 0.5, 1e-6, "back volume");
+        }
+        // The weld band puts the four near vertices on the plane: a section through
+        // them, no crossing points beside them.
+        assert_eq!(weld.section.verts.len(), 4);
     }
 
     #[test]

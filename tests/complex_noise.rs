@@ -1,0 +1,46 @@
+//! The stress variants whose complex used to fail validation (issue 16: "model polygon N
+//! crosses the interior of cell M", `results/stress/session10_full_attach/`): vertex noise
+//! of 1e-7..1e-5 of the diagonal on the greedy building (seed 1) and noise 1e-5 on the
+//! distorted four-room model. Each must give a complex that passes the full validation
+//! (the two still failing are ignored, with their diagnosis).
+
+use portalfind::suite::stress::{Variant, apply};
+use portalfind::suite::{Family, case};
+
+fn validate_variant(family: Family, seed: u64, v: Variant) -> Result<(), String> {
+    let c = case(family, seed).expect("case");
+    let (vs, ps) = apply(v, &c.model.vertices, &c.model.polygons);
+    let m = portalfind::model::from_soup(&c.name, vs, ps).map_err(|e| e.to_string())?;
+    let cx = portalfind::pipeline::complex_of_unchecked(&m).map_err(|e| e.to_string())?;
+    cx.check_valid().map_err(|e| format!("{} {v}: {e}", c.name))?;
+    cx.validate(&m).map_err(|e| format!("{} {v}: {e}", c.name))?;
+    eprintln!("{} {v}: valid, {} active cells", c.name, cx.stats.active_cells);
+    Ok(())
+}
+
+/// Still open: a crack crossing (the cell's section by the support plane is ~1e-6, covered
+/// by polygon 182 for the validation's check but not for the sealing pass's).
+#[test]
+#[ignore]
+fn greedy_noise_1e7_validates() {
+    validate_variant(Family::Greedy, 1, Variant::Noise(1e-7)).unwrap();
+}
+
+#[test]
+fn greedy_noise_1e6_validates() {
+    validate_variant(Family::Greedy, 1, Variant::Noise(1e-6)).unwrap();
+}
+
+#[test]
+fn greedy_noise_1e5_validates() {
+    validate_variant(Family::Greedy, 1, Variant::Noise(1e-5)).unwrap();
+}
+
+/// Still open: the sealing split of cell 262 is refused because the neighbour's copy of the
+/// shared face carries T-vertices on the plane (2e-16 off), so its subdivision duplicates
+/// an existing edge of the neighbour, and cutting the neighbour too is refused.
+#[test]
+#[ignore]
+fn four_room_distorted_noise_1e5_validates() {
+    validate_variant(Family::Thesis, 2, Variant::Noise(1e-5)).unwrap();
+}
