@@ -1240,6 +1240,8 @@ fn run_inner(
     };
     let mut constrained = labels.is_some();
     let stop = loop {
+        #[cfg(test)]
+        queue_audit::check(&comps, &heap);
         if let StopRule::Cells(target) = settings.stop
             && cells <= target
         {
@@ -1636,6 +1638,46 @@ fn regions(comps: &[Comp]) -> usize {
     count
 }
 
+/// Test-only audit of `requeue`'s bookkeeping (switched on per thread by the tests): a
+/// link's `queued` weight, when set, names an entry of the heap with that pair, weight and
+/// saddle, so skipping a push of that key never loses the pair.
+#[cfg(test)]
+mod queue_audit {
+    use super::{BinaryHeap, Comp, Entry};
+    use std::cell::Cell;
+
+    thread_local! {
+        pub static ON: Cell<bool> = const { Cell::new(false) };
+        static POPS: Cell<u64> = const { Cell::new(0) };
+    }
+
+    /// Every 64th pop (a whole-heap check at every pop made the test take minutes): a
+    /// wrong mark stays until its pair is weighed anew, so it is still seen.
+    pub fn check(comps: &[Comp], heap: &BinaryHeap<Entry>) {
+        if !ON.with(Cell::get) || !POPS.with(|p| p.replace(p.get() + 1)).is_multiple_of(64) {
+            return;
+        }
+        let queued: std::collections::HashSet<(u32, u32, u64, u64)> = heap
+            .iter()
+            .map(|e| (e.a, e.b, e.weight.to_bits(), e.saddle.to_bits()))
+            .collect();
+        for (a, c) in comps.iter().enumerate() {
+            if !c.alive {
+                continue;
+            }
+            for &(b, l) in &c.links.0 {
+                if (a as u32) < b && !l.queued.is_nan() {
+                    assert!(
+                        queued.contains(&(a as u32, b, l.queued.to_bits(), l.saddle.to_bits())),
+                        "pair ({a}, {b}) marked queued at {} with no such entry in the heap",
+                        l.queued
+                    );
+                }
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1816,6 +1858,9 @@ mod tests {
     fn skipping_duplicate_pushes_changes_no_step() {
         use crate::decimate::HeuristicKind;
         let mut steps = 0;
+        // Also audit the bookkeeping behind the skip after every pop (`queue_audit`): the
+        // steps alone do not show a lost pair on models where no kept pair is decided anew.
+        super::queue_audit::ON.with(|on| on.set(true));
         for (name, cx) in complexes() {
             for stop in [StopRule::Threshold(DEFAULT_RATIO), StopRule::None] {
                 let settings = Settings {
