@@ -1441,27 +1441,13 @@ fn run_inner(
         progress(steps.len(), cells);
         comps[a] = ca;
         if all {
-            // Every link of the survivor, by position (no search; `requeue`'s rule).
+            // Every link of the survivor, in its order (no sorted key list).
             for i in 0..comps[a].links.len() {
                 let (k, lk) = comps[a].links.0[i];
                 let (x, y) = if (a as u32) < k { (a as u32, k) } else { (k, a as u32) };
                 stats.weights_computed += 1;
                 let w = weigh(&comps[x as usize], &comps[y as usize], &lk);
-                if dedup && lk.queued.to_bits() == w.to_bits() {
-                    continue;
-                }
-                comps[a].links.0[i].1.queued = w;
-                comps[k as usize]
-                    .links
-                    .get_mut(a as u32)
-                    .expect("a linked neighbour")
-                    .queued = w;
-                heap.push(Entry {
-                    weight: w,
-                    saddle: lk.saddle,
-                    a: x,
-                    b: y,
-                });
+                requeue(&mut comps, &mut heap, x, y, w, lk.saddle);
             }
         } else {
             for &k in cb.links.keys().filter(|&&k| k as usize != a) {
