@@ -351,6 +351,30 @@ impl Tetrahedralization {
         (u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) + u[2] * (v[0] * w[1] - v[1] * w[0]))
             / 6.0
     }
+    /// The same triangulation with its vertices moved to `points` (indexed like the input,
+    /// e.g. the input after a rotation). Used to separate what a rigid motion changes in the
+    /// Delaunay tetrahedralization (cospherical ties, broken by a perturbation keyed to the
+    /// lexicographic order, which a rotation changes; near-ties that rounding decides) from
+    /// what it changes downstream: the cell complex built on the moved triangulation sees the
+    /// moved coordinates but the unmoved combinatorics. `None` when the lengths differ, a
+    /// point is not finite, or a tetrahedron is not positively oriented at its moved
+    /// vertices (exact `orient3d`): then it is not a triangulation of the moved points. The
+    /// result is a triangulation (every tetrahedron positive, the same face pairing) but not
+    /// necessarily Delaunay, and its hull may be non-convex by rounding where hull points
+    /// were coplanar.
+    pub fn moved(&self, points: &[P3]) -> Option<Self> {
+        if points.len() != self.points.len() || points.iter().flatten().any(|c| !c.is_finite()) {
+            return None;
+        }
+        let positive = self.slots[..self.n_finite].iter().all(|s| {
+            let [a, b, c, d] = s.v.map(|v| &points[v as usize]);
+            crate::predicates::orient3d(a, b, c, d) > 0
+        });
+        positive.then(|| Tetrahedralization {
+            points: points.to_vec(),
+            ..self.clone()
+        })
+    }
     /// Bytes held by this structure's arrays (excluding the allocator's overhead).
     pub fn heap_bytes(&self) -> usize {
         self.points.capacity() * 24

@@ -349,3 +349,26 @@ fn jitter_into_subnormals_and_1e_200_offsets() {
         }
     }
 }
+
+/// `moved` keeps the combinatorics and takes the new coordinates when every tetrahedron
+/// stays positive (a power-of-two scale and a translation: exact), and refuses a mirror
+/// image, which inverts every tetrahedron.
+#[test]
+fn moved_keeps_the_combinatorics_or_refuses_inverted_tetrahedra() {
+    let pts = random(200, 11);
+    let t = Tetrahedralization::build(&pts).unwrap();
+    let shifted: Vec<P3> = pts
+        .iter()
+        .map(|p| [p[0] * 4.0 + 8.0, p[1] * 4.0 - 2.0, p[2] * 4.0])
+        .collect();
+    let m = t
+        .moved(&shifted)
+        .expect("an exact similarity keeps every tetrahedron positive");
+    assert_eq!(canonical(&m), canonical(&t));
+    assert_eq!(m.points(), &shifted[..]);
+    let rebuilt = Tetrahedralization::build(&shifted).unwrap();
+    assert_eq!(canonical(&rebuilt), canonical(&m));
+    let mirrored: Vec<P3> = pts.iter().map(|p| [-p[0], p[1], p[2]]).collect();
+    assert!(t.moved(&mirrored).is_none());
+    assert!(t.moved(&pts[1..]).is_none());
+}
