@@ -1097,12 +1097,15 @@ fn complex(
             l.hull_point[2]
         );
     }
+    if let Some(hint) = gap_hint(&cx, &m) {
+        println!("{hint}");
+    }
     print_sealed(&sealed);
     if let Some(pf) = pointfile {
         write_or_clear_pointfile(pf, cx.leaks.first().map(|l| cx.leak_pointfile(l)))?;
     }
     if cx.stats.active_cells == 0 {
-        report_leaks_and_orientation(&cx);
+        report_leaks_and_orientation(&cx, &m);
     }
     if validate {
         let t1 = Instant::now();
@@ -1489,7 +1492,7 @@ fn run_decimation(
         println!("removed an interrupted run's staging directory {}", d.display());
     }
     print_sealed(&sealed);
-    report_leaks_and_orientation(&cx);
+    report_leaks_and_orientation(&cx, &m);
     if let Some(settings) = evaluate {
         println!();
         let rs = serde_json::to_value(&doc.settings).unwrap_or_default();
@@ -1611,9 +1614,37 @@ fn print_sealed(sealed: &[portalfind::complex::SealedOpening]) {
     }
 }
 
+/// With a leak: the input's open edges and the widest gap between them
+/// ([`portalfind::model::gaps::widest_gap`]), the size of the cracks a leak can pass, and
+/// the `--seal-holes` size that closed every crack leak of the stress table (four widest
+/// gaps). `None` without a leak (the measure is only computed when it is needed).
+fn gap_hint(cx: &portalfind::complex::CellComplex, m: &portalfind::model::Model) -> Option<String> {
+    if cx.leaks.is_empty() {
+        return None;
+    }
+    let open = m.report.open_edges;
+    if open == 0 {
+        return Some(
+            "note: the input has no open edge, so the leak passes between polygons that touch \
+             without sharing edges (T-junctions or overlaps); see the README's \"Sealing leaky levels\""
+                .into(),
+        );
+    }
+    let gap = portalfind::model::gaps::widest_gap(m);
+    let (lo, hi) = m.bbox();
+    let diag = portalfind::base::vec::dist(&lo, &hi);
+    Some(format!(
+        "note: the input has {open} open edges; the widest gap between them is {gap:.4e} model units \
+         ({:.2e} of the diagonal). Cracks that narrow are closed by `--seal-holes {:.4e}` (4 x the gap; \
+         a wider hole needs a larger size or a fix in the model); see the README's \"Sealing leaky levels\"",
+        gap / diag,
+        4.0 * gap
+    ))
+}
+
 /// Warnings a user must not miss: leaks, and a model whose every region was removed
 /// (typically polygons facing away from free space, the opposite of our convention).
-fn report_leaks_and_orientation(cx: &portalfind::complex::CellComplex) {
+fn report_leaks_and_orientation(cx: &portalfind::complex::CellComplex, m: &portalfind::model::Model) {
     for (i, l) in cx.leaks.iter().enumerate() {
         eprintln!(
             "warning: leak {i}: the region of {} cells reaches the outside near ({:.3}, {:.3}, {:.3}); \
@@ -1621,6 +1652,9 @@ fn report_leaks_and_orientation(cx: &portalfind::complex::CellComplex) {
              `portalfind complex MODEL --pointfile FILE` (load it in TrenchBroom)",
             l.region_cells, l.hull_point[0], l.hull_point[1], l.hull_point[2]
         );
+    }
+    if let Some(hint) = gap_hint(cx, m) {
+        eprintln!("{hint}");
     }
     if cx.stats.active_cells == 0 {
         eprintln!(

@@ -241,3 +241,59 @@ fn noise_opens_the_cracks_of_t_junctions_and_sealing_at_four_times_the_widest_ga
         }
     }
 }
+
+/// `complex` (and `run`) print the widest gap beside a leak warning and the
+/// `--seal-holes` size of four gaps; that size, passed back, closes the leak. The hint is
+/// absent when nothing leaks.
+#[test]
+fn a_leak_warning_names_the_widest_gap_and_a_seal_size_that_closes_it() {
+    use portalfind::suite::stress::{Variant, apply};
+    use portalfind::suite::{Family, case};
+    let c = case(Family::Thesis, 0).expect("case");
+    let (vs, ps) = apply(Variant::Noise(1e-4), &c.model.vertices, &c.model.polygons);
+    let dir = std::env::temp_dir().join(format!("portalfind-test-{}-gaphint", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("noisy.obj");
+    let mut obj = String::new();
+    for v in &vs {
+        obj.push_str(&format!("v {:e} {:e} {:e}\n", v[0], v[1], v[2]));
+    }
+    for p in &ps {
+        obj.push('f');
+        for i in p {
+            obj.push_str(&format!(" {}", i + 1));
+        }
+        obj.push('\n');
+    }
+    std::fs::write(&path, obj).unwrap();
+    let complex = |extra: &[&str]| {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_portalfind"))
+            .arg("complex")
+            .arg(&path)
+            .args(["--no-validate"])
+            .args(extra)
+            .output()
+            .expect("run portalfind");
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stdout).to_string()
+    };
+    let leaks = |out: &str| {
+        let line = out.lines().find(|l| l.starts_with("leaks ")).expect("a leaks row");
+        line.split_whitespace().last().unwrap().parse::<usize>().unwrap()
+    };
+    let out = complex(&[]);
+    assert_eq!(leaks(&out), 1, "{out}");
+    let hint = out
+        .lines()
+        .find(|l| l.contains("widest gap between them"))
+        .expect("the gap hint");
+    let size = hint
+        .split("`--seal-holes ")
+        .nth(1)
+        .and_then(|s| s.split('`').next())
+        .expect("a size");
+    let sealed = complex(&["--seal-holes", size]);
+    assert_eq!(leaks(&sealed), 0, "{sealed}");
+    assert!(!sealed.contains("widest gap between them"), "no hint without a leak");
+    let _ = std::fs::remove_dir_all(&dir);
+}

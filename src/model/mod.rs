@@ -102,6 +102,7 @@
 
 mod clean;
 mod error;
+pub mod gaps;
 mod mesh;
 mod obj;
 mod report;

@@ -235,89 +235,9 @@ pub fn is_closed(m: &crate::model::Model) -> bool {
     r.open_edges == 0 && r.non_manifold_edges == 0 && r.t_junctions == 0
 }
 
-/// The open edges (used by exactly one polygon) of a cleaned model, as segments.
-fn open_edges(m: &crate::model::Model) -> Vec<[P3; 2]> {
-    let mut edges: Vec<(u32, u32)> = Vec::new();
-    for p in &m.polygons {
-        let n = p.verts.len();
-        for i in 0..n {
-            let (a, b) = (p.verts[i].0, p.verts[(i + 1) % n].0);
-            edges.push((a.min(b), a.max(b)));
-        }
-    }
-    edges.sort_unstable();
-    let mut out = Vec::new();
-    let mut i = 0;
-    while i < edges.len() {
-        let mut j = i;
-        while j < edges.len() && edges[j] == edges[i] {
-            j += 1;
-        }
-        if j - i == 1 {
-            let (a, b) = edges[i];
-            out.push([m.vertices[a as usize], m.vertices[b as usize]]);
-        }
-        i = j;
-    }
-    out
-}
-
-/// The distance from `p` to the segment `s`.
-fn point_segment(p: &P3, s: &[P3; 2]) -> f64 {
-    use crate::base::vec::{dist, dot, lerp, sub};
-    let d = sub(&s[1], &s[0]);
-    let dd = dot(&d, &d);
-    let t = if dd > 0.0 {
-        (dot(&sub(p, &s[0]), &d) / dd).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    dist(p, &lerp(&s[0], &s[1], t))
-}
-
-/// An estimate of the widest **gap** of a cleaned model's surface (model units): the
-/// largest distance from a point of an open edge (its quarter points) to the nearest other
-/// open edge, or 0 without open edges. Across a crack that noise opened at a T-junction
-/// (the long edge on one side, the two short edges through the moved T-vertex on the
-/// other) this is the crack's width at its widest, up to the sampling; for a wide hole
-/// bounded by one loop of open edges it is about half the hole's width (the distance from
-/// an edge's middle to its neighbours). Edges without a neighbour within the model's
-/// bounding-box diagonal (a lone open edge) count as that far. Quadratic in the open
-/// edges, with a bounding-box test first; the stress table's noisy models have a few
-/// thousand.
-pub fn widest_gap(m: &crate::model::Model) -> f64 {
-    let edges = open_edges(m);
-    let (lo, hi) = m.bbox();
-    let diag = crate::base::vec::dist(&lo, &hi);
-    let boxes: Vec<(P3, P3)> = edges
-        .iter()
-        .map(|s| {
-            (
-                std::array::from_fn(|k| s[0][k].min(s[1][k])),
-                std::array::from_fn(|k| s[0][k].max(s[1][k])),
-            )
-        })
-        .collect();
-    let mut widest = 0.0f64;
-    for (i, s) in edges.iter().enumerate() {
-        for t in [0.25, 0.5, 0.75] {
-            let p = crate::base::vec::lerp(&s[0], &s[1], t);
-            let mut best = diag;
-            for (j, o) in edges.iter().enumerate() {
-                if j == i {
-                    continue;
-                }
-                let (blo, bhi) = &boxes[j];
-                let out = (0..3).any(|k| p[k] < blo[k] - best || p[k] > bhi[k] + best);
-                if !out {
-                    best = best.min(point_segment(&p, o));
-                }
-            }
-            widest = widest.max(best);
-        }
-    }
-    widest
-}
+/// The widest gap between open edges (moved to [`crate::model::gaps`], where `run` and
+/// `complex` use it beside leak warnings).
+pub use crate::model::gaps::widest_gap;
 
 /// The sealing size the table tries on leaking rows, in widest gaps: a portal through a
 /// crack is not in the wall's plane, so its width as [`crate::complex::CellComplex::seal_holes`]
