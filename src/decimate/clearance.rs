@@ -210,6 +210,12 @@ fn portal_passage(
 ) -> f64 {
     let mut s = 0.0f64;
     for piece in pieces {
+        // The first leg starts at `xa`, so it is never above `da` (its marching's first
+        // sample is `da` itself), and no later path can raise `s` once `s >= da`: the
+        // remaining samples are not queried (`passage_stops_at_the_first_cells_clearance`).
+        if s >= da {
+            break;
+        }
         let m = piece.centroid();
         let dm = field.distance(m);
         let ys = std::iter::once(m).chain(piece.verts.iter().map(|&v| mid(m, v)));
@@ -230,6 +236,9 @@ fn portal_passage(
                 continue;
             }
             s = s.max(first.min(segment_min_from(field, y, dy, xb, s)));
+            if s >= da {
+                break;
+            }
         }
     }
     if s.is_finite() { s } else { 0.0 }
@@ -367,9 +376,18 @@ struct Link {
     saddle: f64,
     area: f64,
     av: [f64; 3],
-    /// A point on the largest portal piece and its normal (same orientation as `av`): the
-    /// plane when the area vector degenerates.
-    largest: (f64, [f64; 3], [f64; 3]),
+    /// The area of the largest portal piece: its plane (its centroid, and its normal in
+    /// `av`'s orientation) is the portal plane when the area vector degenerates. The plane
+    /// is not stored (56 bytes in each copy of every link) but recomputed from the piece
+    /// when a frame is needed ([`Link::frame`]): the same calls on the same piece, so the
+    /// same bits.
+    largest_area: f64,
+    /// The largest piece: (portal index into `CellComplex::portals`, piece index), or
+    /// `NO_PIECE` (no piece of positive area: the plane `z = 0`, normal `+z`).
+    largest_at: (u32, u32),
+    /// Whether the largest piece's normal is negated (the link seen from the portal's
+    /// second cell's side; negation is exact, so this is the stored normal's bits).
+    largest_flip: bool,
     /// Whether the saddle is already the refined one ([`CellField::refined_passage`]) of
     /// this portal set.
     refined: bool,
@@ -400,7 +418,9 @@ impl Link {
         saddle: 0.0,
         area: 0.0,
         av: [0.0; 3],
-        largest: (0.0, [0.0, 0.0, 1.0], [0.0; 3]),
+        largest_area: 0.0,
+        largest_at: NO_PIECE,
+        largest_flip: false,
         refined: false,
         queued: f64::NAN,
     };
@@ -410,7 +430,7 @@ impl Link {
         let n = |v: [f64; 3]| [-v[0], -v[1], -v[2]];
         Link {
             av: n(self.av),
-            largest: (self.largest.0, n(self.largest.1), self.largest.2),
+            largest_flip: !self.largest_flip,
             ..*self
         }
     }
@@ -422,10 +442,20 @@ impl Link {
             saddle,
             area: self.area + o.area,
             av: [self.av[0] + o.av[0], self.av[1] + o.av[1], self.av[2] + o.av[2]],
-            largest: if o.largest.0 > self.largest.0 {
-                o.largest
+            largest_area: if o.largest_area > self.largest_area {
+                o.largest_area
             } else {
-                self.largest
+                self.largest_area
+            },
+            largest_at: if o.largest_area > self.largest_area {
+                o.largest_at
+            } else {
+                self.largest_at
+            },
+            largest_flip: if o.largest_area > self.largest_area {
+                o.largest_flip
+            } else {
+                self.largest_flip
             },
             refined: false,
             // This pair's queued entry keeps its key if the saddle keeps its bits.
@@ -439,18 +469,57 @@ impl Link {
 
     /// The portal plane's frame (the decimation's rule: the area-weighted mean normal, or
     /// the largest piece's normal when the mean degenerates).
-    fn frame(&self) -> Frame {
+    fn frame(&self, cx: &CellComplex) -> Frame {
+        let (normal, centroid) = self.largest_plane(cx);
         let l = norm(&self.av);
         let n = if l > MEAN_NORMAL_REL * self.area && l.is_finite() {
             [self.av[0] / l, self.av[1] / l, self.av[2] / l]
         } else {
-            self.largest.1
+            normal
         };
-        Frame::new(n, self.largest.2)
-            .or_else(|| Frame::new([0.0, 0.0, 1.0], self.largest.2))
+        Frame::new(n, centroid)
+            .or_else(|| Frame::new([0.0, 0.0, 1.0], centroid))
             .expect("unit z frame")
     }
+
+    /// The largest piece's normal (in `av`'s orientation) and centroid.
+    fn largest_plane(&self, cx: &CellComplex) -> ([f64; 3], [f64; 3]) {
+        let (normal, centroid) = if self.largest_at == NO_PIECE {
+            ([0.0, 0.0, 1.0], [0.0; 3])
+        } else {
+            let q = &cx.portals[self.largest_at.0 as usize].pieces[self.largest_at.1 as usize];
+            (q.normal(), q.centroid())
+        };
+        if self.largest_flip {
+            ([-normal[0], -normal[1], -normal[2]], centroid)
+        } else {
+            (normal, centroid)
+        }
+    }
 }
+
+/// The refined passages ([`CellField::refined_passage`]) computed so far in a decimation, by
+/// portal (NaN: not yet). The gate refines every portal between a pair's components when it
+/// pops, and a pair of grown components again, so most portals between two rooms are asked
+/// for many times, and the second pass of a moved run asks for the first's again; the value
+/// depends on the field and the portal only, so a stored one has the bits of a new one.
+struct RefinedCache {
+    value: Vec<f64>,
+    /// Values taken from the cache (for tests).
+    hits: usize,
+}
+
+impl RefinedCache {
+    fn new(cx: &CellComplex) -> Self {
+        RefinedCache {
+            value: vec![f64::NAN; cx.portals.len()],
+            hits: 0,
+        }
+    }
+}
+
+/// [`Link::largest_at`] of a link without a piece of positive area.
+const NO_PIECE: (u32, u32) = (u32::MAX, u32::MAX);
 
 /// A heap entry; the heap is a max-heap, so `Ord` is reversed to pop the lowest weight.
 #[derive(Clone, Copy, Debug)]
@@ -494,7 +563,8 @@ struct Comp {
     /// The complex cells in the component (kept only when the aperture is needed).
     members: Vec<u32>,
     /// The 3D convex hull of the members' vertices, built when first needed.
-    hull: Option<Hull3>,
+    /// (Boxed: most components never need one, and `Comp` is allocated for every cell.)
+    hull: Option<Box<Hull3>>,
     /// The group of a constrained run ([`run_inner`]'s `labels`; 0 without).
     label: u32,
 }
@@ -701,7 +771,18 @@ fn run_moved(
     let t = Instant::now();
     let field = CellField::new(cx);
     let field_seconds = t.elapsed().as_secs_f64();
-    let mut first = run_inner(cx, &field, settings, gate, trace.as_deref_mut(), None, None, progress);
+    let mut refined = RefinedCache::new(cx);
+    let mut first = run_inner(
+        cx,
+        &field,
+        &mut refined,
+        settings,
+        gate,
+        trace.as_deref_mut(),
+        None,
+        None,
+        progress,
+    );
     first.stats.init_seconds += field_seconds;
     let StopReason::Threshold { next_weight, .. } = first.stop else {
         return first;
@@ -714,12 +795,17 @@ fn run_moved(
         return first;
     };
     let label_seconds = t.elapsed().as_secs_f64();
+    // Only the first pass's counters are kept: its steps and partition are freed before the
+    // second pass allocates its own.
+    let first_stats = std::mem::take(&mut first.stats);
+    drop(first);
     if let Some(t) = trace.as_deref_mut() {
         t.clear();
     }
     let mut second = run_inner(
         cx,
         &field,
+        &mut refined,
         settings,
         gate,
         trace,
@@ -727,8 +813,8 @@ fn run_moved(
         Some((&labels, next_weight)),
         progress,
     );
-    second.stats.init_seconds += first.stats.init_seconds;
-    second.stats.collapse_seconds += first.stats.collapse_seconds + label_seconds;
+    second.stats.init_seconds += first_stats.init_seconds;
+    second.stats.collapse_seconds += first_stats.collapse_seconds + label_seconds;
     second
 }
 
@@ -750,12 +836,14 @@ pub(crate) fn run_to_end_and_cut(
     };
     let gate = settings.heuristic.heuristic().aperture_gate();
     let field = CellField::new(cx);
+    let mut refined = RefinedCache::new(cx);
     // One pass to the end, cut where `threshold:r` stops: (stopped, full, next weight).
-    let pass = |labels: Option<(&[u32], f64)>, progress: &mut dyn FnMut(usize, usize)| {
+    let mut pass = |labels: Option<(&[u32], f64)>, progress: &mut dyn FnMut(usize, usize)| {
         let mut cut = None;
         let full = run_inner(
             cx,
             &field,
+            &mut refined,
             &full_settings,
             gate,
             None,
@@ -773,6 +861,8 @@ pub(crate) fn run_to_end_and_cut(
     let Some(labels) = tunnel_labels(cx, &field, &stopped.partition) else {
         return (stopped, full);
     };
+    // The first pass's results are replaced: freed before the second pass allocates.
+    drop((stopped, full));
     let (stopped, full, _) = pass(Some((&labels, next)), &mut |_, _| {});
     (stopped, full)
 }
@@ -812,14 +902,10 @@ pub fn tunnel_labels(cx: &CellComplex, field: &CellField, part: &super::Partitio
         .iter()
         .map(|m| m.iter().map(|&c| field.value[c as usize]).fold(0.0, f64::max))
         .collect();
-    let mut cell_portals: Vec<Vec<u32>> = vec![Vec::new(); n];
-    for (k, p) in cx.portals.iter().enumerate() {
-        let [a, b] = p.cells;
-        if a != b && label[a.idx()] != u32::MAX && label[b.idx()] != u32::MAX {
-            cell_portals[a.idx()].push(k as u32);
-            cell_portals[b.idx()].push(k as u32);
-        }
-    }
+    let cell_portals = CellPortals::new(cx, |k| {
+        let [a, b] = cx.portals[k].cells;
+        a != b && label[a.idx()] != u32::MAX && label[b.idx()] != u32::MAX
+    });
     let pairs: Vec<(u32, u32, f64)> = part
         .portals(cx)
         .iter()
@@ -830,28 +916,37 @@ pub fn tunnel_labels(cx: &CellComplex, field: &CellField, part: &super::Partitio
         })
         .collect();
     let mut moved = false;
-    let mut node: std::collections::HashMap<u32, u32> = Default::default();
+    // The flow node of each cell of the current pair's two groups (`u32::MAX`: none; reset
+    // after each pair).
+    let mut node: Vec<u32> = vec![u32::MAX; n];
     for (i, j, saddle) in pairs {
         let level = (saddle * peak[i as usize].min(peak[j as usize])).sqrt();
         if !(level.is_finite() && level > 0.0) {
             continue;
         }
         // Nodes 0 (source: i's cores) and 1 (sink: j's cores), then the other cells.
-        node.clear();
         let mut cells: Vec<u32> = Vec::new();
         let mut cores = [false; 2];
         for &g in &[i, j] {
             for &c in &members[g as usize] {
                 if field.value[c as usize] >= level {
-                    node.insert(c, (g == j) as u32);
+                    node[c as usize] = (g == j) as u32;
                     cores[(g == j) as usize] = true;
                 } else {
-                    node.insert(c, 2 + cells.len() as u32);
+                    node[c as usize] = 2 + cells.len() as u32;
                     cells.push(c);
                 }
             }
         }
+        let reset = |node: &mut Vec<u32>, members: &[Vec<u32>]| {
+            for &g in &[i, j] {
+                for &c in &members[g as usize] {
+                    node[c as usize] = u32::MAX;
+                }
+            }
+        };
         if !(cores[0] && cores[1]) || cells.is_empty() {
+            reset(&mut node, &members);
             continue;
         }
         let m = 2 + cells.len();
@@ -859,13 +954,14 @@ pub fn tunnel_labels(cx: &CellComplex, field: &CellField, part: &super::Partitio
             (vec![Vec::new(); m], Vec::new(), Vec::new());
         for &g in &[i, j] {
             for &c in &members[g as usize] {
-                for &k in &cell_portals[c as usize] {
+                for &k in cell_portals.of(c as usize) {
                     let [a, b] = cx.portals[k as usize].cells;
                     let o = if a.0 == c { b.0 } else { a.0 };
                     // Each portal once (from its lower cell), both ends in the pair.
-                    let (Some(&x), Some(&y)) = (node.get(&c), node.get(&o)) else {
+                    let (x, y) = (node[c as usize], node[o as usize]);
+                    if x == u32::MAX || y == u32::MAX {
                         continue;
-                    };
+                    }
                     if c > o || x == y {
                         continue;
                     }
@@ -947,7 +1043,7 @@ pub fn tunnel_labels(cx: &CellComplex, field: &CellField, part: &super::Partitio
         let mut next: [Vec<u32>; 2] = [Vec::new(), Vec::new()];
         for &g in &[i, j] {
             for &c in &members[g as usize] {
-                let x = node[&c] as usize;
+                let x = node[c as usize] as usize;
                 let side = if x < 2 {
                     x
                 } else if reach[x] {
@@ -968,6 +1064,7 @@ pub fn tunnel_labels(cx: &CellComplex, field: &CellField, part: &super::Partitio
         let [a, b] = next;
         members[i as usize] = a;
         members[j as usize] = b;
+        reset(&mut node, &members);
     }
     moved.then_some(label)
 }
@@ -980,7 +1077,7 @@ fn section(cx: &CellComplex, c: &mut Comp, frame: &Frame) -> f64 {
             .iter()
             .flat_map(|&m| cx.cells[m as usize].poly.vertices())
             .collect();
-        Hull3::new(&pts)
+        Box::new(Hull3::new(&pts))
     });
     let a = polygon_area(&hull2(hull.pts.iter().map(|p| frame.project(p)).collect::<Vec<P2>>()));
     if a.is_finite() { a.max(0.0) } else { 0.0 }
@@ -1097,6 +1194,7 @@ fn cut_area_with(
 fn run_inner(
     cx: &CellComplex,
     field: &CellField,
+    refined_cache: &mut RefinedCache,
     settings: &Settings,
     gate: Option<ApertureGate>,
     mut trace: Option<&mut Vec<TraceStep>>,
@@ -1133,11 +1231,11 @@ fn run_inner(
             area: p.area,
             ..Link::EMPTY
         };
-        for q in &p.pieces {
+        for (i, q) in p.pieces.iter().enumerate() {
             let (qa, qn) = (q.area(), q.normal());
             l.av = [l.av[0] + qa * qn[0], l.av[1] + qa * qn[1], l.av[2] + qa * qn[2]];
-            if qa > l.largest.0 {
-                l.largest = (qa, qn, q.centroid());
+            if qa > l.largest_area {
+                (l.largest_area, l.largest_at) = (qa, (k as u32, i as u32));
             }
         }
         for (x, y, l) in [(a, b, l), (b, a, l.reversed())] {
@@ -1147,18 +1245,17 @@ fn run_inner(
     }
     // The complex portals of each cell and the component of each cell (union-find), for
     // the gate's refined saddles.
-    let mut cell_portals: Vec<Vec<u32>> = Vec::new();
+    let mut cell_portals = CellPortals {
+        start: vec![0],
+        portals: Vec::new(),
+    };
     let mut owner: Vec<u32> = Vec::new();
     if gate.is_some() {
-        cell_portals = vec![Vec::new(); n];
         owner = (0..n as u32).collect();
-        for (k, p) in cx.portals.iter().enumerate() {
-            let [a, b] = p.cells;
-            if comps[a.idx()].alive && comps[b.idx()].alive && a != b {
-                cell_portals[a.idx()].push(k as u32);
-                cell_portals[b.idx()].push(k as u32);
-            }
-        }
+        cell_portals = CellPortals::new(cx, |k| {
+            let [a, b] = cx.portals[k].cells;
+            comps[a.idx()].alive && comps[b.idx()].alive && a != b
+        });
     }
     stats.initial_cells = cells;
     stats.initial_pairs = comps.iter().map(|c| c.links.len()).sum::<usize>() / 2;
@@ -1322,7 +1419,7 @@ fn run_inner(
             // value does not depend on the order.
             let mut between: Vec<u32> = Vec::new();
             for &m in &comps[small].members {
-                for &k in &cell_portals[m as usize] {
+                for &k in cell_portals.of(m as usize) {
                     let [x, y] = cx.portals[k as usize].cells;
                     let o = if x.0 == m { y.0 } else { x.0 };
                     if find(&mut owner, o) as usize == other {
@@ -1330,14 +1427,29 @@ fn run_inner(
                     }
                 }
             }
-            let refined: Vec<f64> = if between.len() >= PARALLEL_MEMBERS / 64 {
-                between
-                    .par_iter()
-                    .map(|&k| field.refined_passage(cx, k as usize))
-                    .collect()
-            } else {
-                between.iter().map(|&k| field.refined_passage(cx, k as usize)).collect()
+            // A portal's refined passage is a function of the field and the portal only, so
+            // it is computed once per decimation ([`RefinedCache`]; not with a trace, whose
+            // engine is the reference the cache is tested against).
+            let cache = &*refined_cache;
+            let refine = |&k: &u32| {
+                let known = cache.value[k as usize];
+                if dedup && !known.is_nan() {
+                    known
+                } else {
+                    field.refined_passage(cx, k as usize)
+                }
             };
+            let refined: Vec<f64> = if between.len() >= PARALLEL_MEMBERS / 64 {
+                between.par_iter().map(refine).collect()
+            } else {
+                between.iter().map(refine).collect()
+            };
+            for (&k, &v) in between.iter().zip(&refined) {
+                if dedup && !refined_cache.value[k as usize].is_nan() {
+                    refined_cache.hits += 1;
+                }
+                refined_cache.value[k as usize] = v;
+            }
             let s2 = refined.into_iter().fold(l.saddle, f64::max);
             let mut l2 = l;
             l2.saddle = s2;
@@ -1351,7 +1463,7 @@ fn run_inner(
             continue;
         }
         if gated.is_some() || trace.is_some() {
-            let frame = l.frame();
+            let frame = l.frame(cx);
             let mut pa = section(cx, &mut comps[a], &frame);
             let mut pb = section(cx, &mut comps[b], &frame);
             // The opening the sections are compared with.
@@ -1464,6 +1576,8 @@ fn run_inner(
     }
     stats.steps = steps.len();
     stats.collapse_seconds = t1.elapsed().as_secs_f64();
+    // The merge's state is freed before the replay allocates the partition.
+    drop((comps, heap, cell_portals, owner));
     let partition = Decimation::replay(cx, &steps).expect("the merge records live pairs, lower id first");
     Decimation {
         settings: *settings,
@@ -1527,7 +1641,7 @@ fn clean_up(
                 let dominated = peak < g.dominance * o.peak;
                 let slab = g.slab > 0.0
                     && peak < g.slab_peak * o.peak
-                    && section(cx, &mut comps[i as usize], &l.frame()) < g.slab * l.area;
+                    && section(cx, &mut comps[i as usize], &l.frame(cx)) < g.slab * l.area;
                 if dominated || slab {
                     best = Some((l.area, j));
                 }
@@ -1588,6 +1702,46 @@ fn clean_up(
             projected: [0.0, 0.0],
         });
         progress(steps.len(), *cells);
+    }
+}
+
+/// The portals of each cell, in compressed rows (one offset per cell and one flat list,
+/// instead of a vector per cell): row `c` lists the portals `k` (increasing) for which
+/// `keep(k)` holds and `c` is one of the portal's two cells: the order of pushing the
+/// portals, in order, to each of their cells' lists.
+struct CellPortals {
+    start: Vec<u32>,
+    portals: Vec<u32>,
+}
+
+impl CellPortals {
+    fn new(cx: &CellComplex, keep: impl Fn(usize) -> bool) -> Self {
+        let n = cx.cells.len();
+        let mut start = vec![0u32; n + 1];
+        for (k, p) in cx.portals.iter().enumerate() {
+            if keep(k) {
+                start[p.cells[0].idx() + 1] += 1;
+                start[p.cells[1].idx() + 1] += 1;
+            }
+        }
+        for c in 0..n {
+            start[c + 1] += start[c];
+        }
+        let mut fill = start.clone();
+        let mut portals = vec![0u32; start[n] as usize];
+        for (k, p) in cx.portals.iter().enumerate() {
+            if keep(k) {
+                for c in p.cells {
+                    portals[fill[c.idx()] as usize] = k as u32;
+                    fill[c.idx()] += 1;
+                }
+            }
+        }
+        CellPortals { start, portals }
+    }
+
+    fn of(&self, c: usize) -> &[u32] {
+        &self.portals[self.start[c] as usize..self.start[c + 1] as usize]
     }
 }
 
@@ -1823,6 +1977,141 @@ mod tests {
             }
             assert!(checked > 0, "{name}");
         }
+    }
+
+    #[test]
+    fn passage_stops_at_the_first_cells_clearance() {
+        // `portal_passage` stops once the pass reaches the first cell's clearance (no path
+        // can rise above it); the reference above marches every sample, so the test above
+        // fails if the stop is taken too early. Here: the stop is reached on these models.
+        for (name, cx) in complexes() {
+            let f = CellField::new(&cx);
+            let stopped = cx
+                .portals
+                .iter()
+                .enumerate()
+                .filter(|(k, p)| {
+                    let a = p.cells[0].idx();
+                    cx.cells[a].active() && f.passage[*k] > 0.0 && f.passage[*k] >= f.best_clearance[a]
+                })
+                .count();
+            assert!(
+                stopped > 0,
+                "{name}: no portal's pass reaches its first cell's clearance"
+            );
+        }
+    }
+
+    #[test]
+    fn refined_passages_are_reused_and_equal_new_ones() {
+        // A second pass with the first's cache (as a moved run's second pass has) takes
+        // every refined passage it asks for from the cache, and makes the same steps as
+        // the first, which computed them; the stored values are the field's.
+        use crate::decimate::HeuristicKind;
+        let mut hits = 0;
+        for (name, cx) in complexes() {
+            let settings = Settings {
+                heuristic: HeuristicKind::Aperture,
+                stop: StopRule::Threshold(DEFAULT_RATIO),
+                ..Settings::default()
+            };
+            let gate = settings.heuristic.heuristic().aperture_gate();
+            let field = CellField::new(&cx);
+            let mut cache = RefinedCache::new(&cx);
+            let key = |d: &Decimation| -> Vec<(u32, u32, u64)> {
+                d.steps.iter().map(|s| (s.a.0, s.b.0, s.weight.to_bits())).collect()
+            };
+            let cold = run_inner(
+                &cx,
+                &field,
+                &mut cache,
+                &settings,
+                gate,
+                None,
+                None,
+                None,
+                &mut |_, _| {},
+            );
+            let before = cache.hits;
+            let known = cache.value.iter().filter(|v| !v.is_nan()).count();
+            let warm = run_inner(
+                &cx,
+                &field,
+                &mut cache,
+                &settings,
+                gate,
+                None,
+                None,
+                None,
+                &mut |_, _| {},
+            );
+            assert_eq!(key(&cold), key(&warm), "{name}: steps");
+            assert_eq!(cache.value.iter().filter(|v| !v.is_nan()).count(), known, "{name}");
+            for (k, v) in cache.value.iter().enumerate() {
+                if !v.is_nan() {
+                    assert_eq!(
+                        v.to_bits(),
+                        field.refined_passage(&cx, k).to_bits(),
+                        "{name}: portal {k}"
+                    );
+                }
+            }
+            hits += cache.hits - before;
+        }
+        assert!(hits > 0, "no refined passage was taken from the cache");
+    }
+
+    #[test]
+    fn cell_portals_in_rows_list_each_cells_portals_in_order() {
+        let (_, cx) = complexes().pop().unwrap();
+        let keep = |k: usize| k % 3 != 1;
+        let rows = CellPortals::new(&cx, keep);
+        let mut want: Vec<Vec<u32>> = vec![Vec::new(); cx.cells.len()];
+        for (k, p) in cx.portals.iter().enumerate() {
+            if keep(k) {
+                want[p.cells[0].idx()].push(k as u32);
+                want[p.cells[1].idx()].push(k as u32);
+            }
+        }
+        assert!(want.iter().any(|w| w.len() > 1));
+        for (c, w) in want.iter().enumerate() {
+            assert_eq!(rows.of(c), w.as_slice(), "cell {c}");
+        }
+    }
+
+    #[test]
+    fn a_links_plane_is_its_largest_pieces_and_turns_with_it() {
+        let (_, cx) = complexes().pop().unwrap();
+        let (k, p) = cx
+            .portals
+            .iter()
+            .enumerate()
+            .find(|(_, p)| p.pieces.iter().any(|q| q.area() > 0.0))
+            .expect("a portal");
+        let i = (0..p.pieces.len())
+            .max_by(|&x, &y| p.pieces[x].area().total_cmp(&p.pieces[y].area()))
+            .unwrap();
+        let q = &p.pieces[i];
+        let l = Link {
+            largest_area: q.area(),
+            largest_at: (k as u32, i as u32),
+            ..Link::EMPTY
+        };
+        let n = q.normal();
+        assert_eq!(l.largest_plane(&cx), (n, q.centroid()));
+        assert_eq!(l.reversed().largest_plane(&cx), ([-n[0], -n[1], -n[2]], q.centroid()));
+        assert_eq!(l.reversed().reversed().largest_plane(&cx), (n, q.centroid()));
+        // Without a piece: the plane z = 0, normal +z (negated from the other side).
+        assert_eq!(Link::EMPTY.largest_plane(&cx), ([0.0, 0.0, 1.0], [0.0; 3]));
+        let r = Link::EMPTY.reversed().largest_plane(&cx).0;
+        assert_eq!(r.map(f64::to_bits), [-0.0f64, -0.0, -1.0].map(f64::to_bits));
+        // A fused link keeps the larger piece (the first on a tie).
+        let small = Link {
+            largest_area: 0.5 * q.area(),
+            ..Link::EMPTY
+        };
+        assert_eq!(small.fuse(&l.reversed()).largest_plane(&cx).0, [-n[0], -n[1], -n[2]]);
+        assert_eq!(l.fuse(&l.reversed()).largest_plane(&cx).0, n);
     }
 
     #[test]
@@ -2072,7 +2361,7 @@ mod tests {
         let link = |area: f64| Link {
             area,
             av: [0.0, 0.0, area],
-            largest: (area, [0.0, 0.0, 1.0], [0.0; 3]),
+            largest_area: area,
             ..Link::EMPTY
         };
         let mut comps = vec![comp(1.0, &[]), comp(0.4, &[]), comp(0.4, &[])];
