@@ -132,24 +132,30 @@ impl CellComplex {
                 })
             })
             .collect();
-        let patches: Vec<Patch> = (0..nt)
+        // Indexed by patch id (the owning tetrahedron found by binary search in `first`),
+        // so rayon collects straight into one exactly sized vector: a `flat_map` of
+        // unknown length would collect per-thread lists first and copy them, holding the
+        // patches twice at this stage's peak.
+        let patches: Vec<Patch> = (0..acc)
             .into_par_iter()
             .with_min_len(1024)
-            .flat_map_iter(|t| {
-                (0..4).filter(move |&i| owns(t, i)).map(move |i| {
-                    let tid = TetId(t as u32);
-                    let poly = ConvexPolygon::new(tet.face(tid, i).iter().map(|v| *tet.point(*v)).collect());
-                    let other = tet.neighbor(tid, i).map_or(HULL, |(n, _)| CellId(n.0));
-                    Patch {
-                        polygon: poly,
-                        cells: [CellId(t as u32), other],
-                        occluders: Vec::new(),
-                        alive: true,
-                    }
-                })
+            .map(|id| {
+                let t = first.partition_point(|&f| f <= id) - 1;
+                let i = (0..4)
+                    .filter(|&i| owns(t, i))
+                    .nth((id - first[t]) as usize)
+                    .expect("patch ids are the owned faces' prefix sums");
+                let tid = TetId(t as u32);
+                let poly = ConvexPolygon::from_slice(&tet.face(tid, i).map(|v| *tet.point(v)));
+                let other = tet.neighbor(tid, i).map_or(HULL, |(n, _)| CellId(n.0));
+                Patch {
+                    polygon: poly,
+                    cells: [CellId(t as u32), other],
+                    occluders: Vec::new(),
+                    alive: true,
+                }
             })
             .collect();
-        debug_assert_eq!(patches.len(), acc as usize);
         // In tetrahedron order, so the sum's bits do not depend on the thread count.
         let hull_volume = tet.tets().fold(0.0, |v, (t, _)| v + tet.volume(t));
         let tol = &model.tolerances;
@@ -210,7 +216,16 @@ impl CellComplex {
     /// those faces without any geometry. Returns the polygons left for stage 3.
     fn attach_conforming(&mut self, model: &Model, tet: &Tetrahedralization, on_support: &[bool]) -> Vec<PolygonId> {
         // Sorted vertex triple of every tetrahedron face -> its patch.
-        let mut wanted: HashMap<[u32; 3], Option<PatchId>> = HashMap::new();
+        // Sized at once (an upper bound: fan triangles may repeat), so that it never holds
+        // its old and new tables together while growing.
+        let nfans: usize = model
+            .polygons
+            .iter()
+            .zip(on_support)
+            .filter(|(_, on)| **on)
+            .map(|(p, _)| if p.verts.len() > 3 { 2 * (p.verts.len() - 2) } else { 1 })
+            .sum();
+        let mut wanted: HashMap<[u32; 3], Option<PatchId>> = HashMap::with_capacity(nfans);
         let fans = |p: &[VertexId], start: usize| -> Vec<[u32; 3]> {
             let n = p.len();
             (1..n - 1)
@@ -230,43 +245,57 @@ impl CellComplex {
                 }
             }
         }
-        for (pi, p) in self.patches.iter().enumerate() {
-            let (t, i) = (
-                p.cells[0],
-                self.cells[p.cells[0].idx()]
-                    .poly
-                    .tags
-                    .iter()
-                    .position(|&x| x == pi as u32),
-            );
-            let Some(i) = i else { continue };
-            let f = tet.face(TetId(t.0), i).map(|v| v.0);
-            if let Some(slot) = wanted.get_mut(&key(&f)) {
-                *slot = Some(PatchId(pi as u32));
+        // Which patch each wanted triangle is: looked up on every core (the map is only
+        // read), then recorded in patch order (each tetrahedron face is one patch).
+        let hits: Vec<([u32; 3], PatchId)> = (0..self.patches.len())
+            .into_par_iter()
+            .with_min_len(4096)
+            .filter_map(|pi| {
+                let t = self.patches[pi].cells[0];
+                let i = self.cells[t.idx()].poly.tags.iter().position(|&x| x == pi as u32)?;
+                let k = key(&tet.face(TetId(t.0), i).map(|v| v.0));
+                wanted.contains_key(&k).then_some((k, PatchId(pi as u32)))
+            })
+            .collect();
+        for (k, p) in hits {
+            if let Some(slot) = wanted.get_mut(&k) {
+                *slot = Some(p);
             }
         }
+        // Which fan (start vertex) of each polygon is all patches, decided on every core
+        // (read only); the occluders are then added in polygon order, as one thread would.
+        let chosen: Vec<Option<u8>> = model
+            .polygons
+            .par_iter()
+            .enumerate()
+            .with_min_len(256)
+            .map(|(k, poly)| {
+                if !on_support[k] {
+                    return None;
+                }
+                let starts = if poly.verts.len() > 3 { 2 } else { 1 };
+                (0..starts)
+                    .find(|&s| {
+                        fans(&poly.verts, s).iter().all(|t| match wanted.get(&key(t)) {
+                            // A flat tetrahedron beside the face means other faces lie on the
+                            // polygon too: place it geometrically so all of them get occluders.
+                            Some(Some(p)) => self.patches[p.idx()]
+                                .cells
+                                .iter()
+                                .all(|&c| c == HULL || !self.cells[c.idx()].flat),
+                            _ => false,
+                        })
+                    })
+                    .map(|s| s as u8)
+            })
+            .collect();
         let mut pending = Vec::new();
         for (k, poly) in model.polygons.iter().enumerate() {
-            if !on_support[k] {
-                pending.push(PolygonId(k as u32));
-                continue;
-            }
-            let starts = if poly.verts.len() > 3 { 2 } else { 1 };
-            let fan = (0..starts).map(|s| fans(&poly.verts, s)).find(|tris| {
-                tris.iter().all(|t| match wanted.get(&key(t)) {
-                    // A flat tetrahedron beside the face means other faces lie on the
-                    // polygon too: place it geometrically so all of them get occluders.
-                    Some(Some(p)) => self.patches[p.idx()]
-                        .cells
-                        .iter()
-                        .all(|&c| c == HULL || !self.cells[c.idx()].flat),
-                    _ => false,
-                })
-            });
-            let Some(tris) = fan else {
+            let Some(s) = chosen[k] else {
                 pending.push(PolygonId(k as u32));
                 continue;
             };
+            let tris = fans(&poly.verts, s as usize);
             self.stats.polygons_conforming += 1;
             for tri in tris {
                 let pid = wanted[&key(&tri)].expect("checked");
@@ -281,6 +310,11 @@ impl CellComplex {
                 let same = (0..3).any(|r| (0..3).all(|j| pv[(r + j) % 3] == tv[j]));
                 // The triangle *is* the patch; occluders are stored in the patch's orientation.
                 let polygon = patch.polygon.clone();
+                // Nearly always the patch's only occluder: no growth slack (a first push
+                // reserves four).
+                if patch.occluders.is_empty() {
+                    patch.occluders.reserve_exact(1);
+                }
                 patch.occluders.push(Occluder {
                     polygon,
                     source: PolygonId(k as u32),

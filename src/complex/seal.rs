@@ -198,7 +198,7 @@ impl Sealer {
         &mut self,
         cx: &CellComplex,
         members: &[CellId],
-        adj: &[Vec<(CellId, usize)>],
+        adj: &super::graph::Adjacency,
         hull_open: &HashMap<CellId, (Vec<ConvexPolygon>, [f64; 3])>,
     ) -> Option<RegionSplit> {
         if self.components {
@@ -313,7 +313,7 @@ impl Sealer {
         &mut self,
         cx: &CellComplex,
         members: &[CellId],
-        adj: &[Vec<(CellId, usize)>],
+        adj: &super::graph::Adjacency,
         hull_open: &HashMap<CellId, (Vec<ConvexPolygon>, [f64; 3])>,
         fragments_only: bool,
     ) -> Option<RegionSplit> {

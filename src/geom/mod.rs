@@ -78,5 +78,5 @@ pub(crate) mod vec;
 
 pub use clearance::ClearanceField;
 pub use plane::{Classification, Plane, Side};
-pub use polygon::{ConvexPolygon, PolygonSplit, Subtraction};
+pub use polygon::{ConvexPolygon, INLINE_VERTS, PolygonSplit, Subtraction, Verts};
 pub use polyhedron::{ConvexPolyhedron, Cut, PolyhedronSplit, min_volume};

@@ -13,7 +13,262 @@ use crate::tolerances::Tolerances;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ConvexPolygon {
     /// Vertices, counter-clockwise around the normal.
-    pub verts: Vec<P3>,
+    pub verts: Verts,
+}
+
+/// Vertices held inline, without a heap block, up to this many.
+pub const INLINE_VERTS: usize = 3;
+
+/// A polygon's vertex list: up to [`INLINE_VERTS`] vertices inline (a triangle — every
+/// face of an unsplit tetrahedron, its patches, conforming occluders and whole-patch
+/// portal pieces — needs no heap block), more on the heap. 80 bytes either way, against
+/// a `Vec`'s 24 plus a heap block of 16 + 24·capacity bytes (glibc), i.e. 104 for a
+/// triangle. Derefs to `[P3]`; equality, `Debug` and serde are those of the vertex
+/// slice, so nothing about the polygon's values depends on where they are held.
+#[derive(Clone)]
+pub struct Verts(VertsRepr);
+
+#[derive(Clone)]
+enum VertsRepr {
+    Inline(u8, [P3; INLINE_VERTS]),
+    Heap(Vec<P3>),
+}
+
+impl Verts {
+    /// No vertices.
+    pub const fn new() -> Self {
+        Verts(VertsRepr::Inline(0, [[0.0; 3]; INLINE_VERTS]))
+    }
+
+    /// Room for `n` vertices (inline when `n <= INLINE_VERTS`).
+    pub fn with_capacity(n: usize) -> Self {
+        if n <= INLINE_VERTS {
+            Self::new()
+        } else {
+            Verts(VertsRepr::Heap(Vec::with_capacity(n)))
+        }
+    }
+
+    /// The vertices of `v` (inline when they fit; the heap block is then freed).
+    pub fn from_vec(v: Vec<P3>) -> Self {
+        if v.len() <= INLINE_VERTS {
+            Self::from_slice(&v)
+        } else {
+            Verts(VertsRepr::Heap(v))
+        }
+    }
+
+    /// A copy of `s`.
+    pub fn from_slice(s: &[P3]) -> Self {
+        if s.len() <= INLINE_VERTS {
+            let mut a = [[0.0; 3]; INLINE_VERTS];
+            a[..s.len()].copy_from_slice(s);
+            Verts(VertsRepr::Inline(s.len() as u8, a))
+        } else {
+            Verts(VertsRepr::Heap(s.to_vec()))
+        }
+    }
+
+    /// The vertices as a `Vec`.
+    pub fn into_vec(self) -> Vec<P3> {
+        match self.0 {
+            VertsRepr::Inline(n, a) => a[..n as usize].to_vec(),
+            VertsRepr::Heap(v) => v,
+        }
+    }
+
+    /// The vertices as a slice.
+    pub fn as_slice(&self) -> &[P3] {
+        self
+    }
+
+    /// The vertices as a boxed slice.
+    pub fn into_boxed_slice(self) -> Box<[P3]> {
+        self.into_vec().into_boxed_slice()
+    }
+
+    /// True when the vertices are held without a heap block.
+    pub fn is_inline(&self) -> bool {
+        matches!(self.0, VertsRepr::Inline(..))
+    }
+
+    /// Appends a vertex (moving to the heap past [`INLINE_VERTS`]).
+    pub fn push(&mut self, p: P3) {
+        match &mut self.0 {
+            VertsRepr::Inline(n, a) if (*n as usize) < INLINE_VERTS => {
+                a[*n as usize] = p;
+                *n += 1;
+            }
+            VertsRepr::Inline(n, a) => {
+                let mut v = Vec::with_capacity(2 * INLINE_VERTS);
+                v.extend_from_slice(&a[..*n as usize]);
+                v.push(p);
+                self.0 = VertsRepr::Heap(v);
+            }
+            VertsRepr::Heap(v) => v.push(p),
+        }
+    }
+
+    /// Removes and returns the last vertex.
+    pub fn pop(&mut self) -> Option<P3> {
+        match &mut self.0 {
+            VertsRepr::Inline(n, a) => {
+                if *n == 0 {
+                    return None;
+                }
+                *n -= 1;
+                Some(a[*n as usize])
+            }
+            VertsRepr::Heap(v) => v.pop(),
+        }
+    }
+
+    /// Inserts a vertex at `i` (`i <= len`).
+    pub fn insert(&mut self, i: usize, p: P3) {
+        assert!(i <= self.len(), "insertion index out of bounds");
+        self.push(p);
+        self[i..].rotate_right(1);
+    }
+
+    /// Removes the vertex at `i`.
+    pub fn remove(&mut self, i: usize) -> P3 {
+        let p = self[i];
+        self[i..].rotate_left(1);
+        self.pop();
+        p
+    }
+
+    /// Drops spare heap capacity; moves inline when the vertices fit.
+    pub fn shrink_to_fit(&mut self) {
+        if let VertsRepr::Heap(v) = &mut self.0 {
+            if v.len() <= INLINE_VERTS {
+                *self = Self::from_slice(v);
+            } else {
+                v.shrink_to_fit();
+            }
+        }
+    }
+}
+
+impl Default for Verts {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl std::ops::Deref for Verts {
+    type Target = [P3];
+    #[inline]
+    fn deref(&self) -> &[P3] {
+        match &self.0 {
+            VertsRepr::Inline(n, a) => &a[..*n as usize],
+            VertsRepr::Heap(v) => v,
+        }
+    }
+}
+
+impl std::ops::DerefMut for Verts {
+    #[inline]
+    fn deref_mut(&mut self) -> &mut [P3] {
+        match &mut self.0 {
+            VertsRepr::Inline(n, a) => &mut a[..*n as usize],
+            VertsRepr::Heap(v) => v,
+        }
+    }
+}
+
+impl PartialEq for Verts {
+    fn eq(&self, other: &Self) -> bool {
+        self[..] == other[..]
+    }
+}
+
+impl PartialEq<Vec<P3>> for Verts {
+    fn eq(&self, other: &Vec<P3>) -> bool {
+        self[..] == other[..]
+    }
+}
+
+impl PartialEq<[P3]> for Verts {
+    fn eq(&self, other: &[P3]) -> bool {
+        self[..] == *other
+    }
+}
+
+impl std::fmt::Debug for Verts {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_list().entries(self.iter()).finish()
+    }
+}
+
+impl From<Vec<P3>> for Verts {
+    fn from(v: Vec<P3>) -> Self {
+        Self::from_vec(v)
+    }
+}
+
+impl From<&[P3]> for Verts {
+    fn from(s: &[P3]) -> Self {
+        Self::from_slice(s)
+    }
+}
+
+impl<const N: usize> From<[P3; N]> for Verts {
+    fn from(a: [P3; N]) -> Self {
+        Self::from_slice(&a)
+    }
+}
+
+impl FromIterator<P3> for Verts {
+    fn from_iter<I: IntoIterator<Item = P3>>(iter: I) -> Self {
+        let mut v = Verts::new();
+        v.extend(iter);
+        v
+    }
+}
+
+impl Extend<P3> for Verts {
+    fn extend<I: IntoIterator<Item = P3>>(&mut self, iter: I) {
+        for p in iter {
+            self.push(p);
+        }
+    }
+}
+
+impl<'a> IntoIterator for &'a Verts {
+    type Item = &'a P3;
+    type IntoIter = std::slice::Iter<'a, P3>;
+    fn into_iter(self) -> Self::IntoIter {
+        self.iter()
+    }
+}
+
+impl<'a> IntoIterator for &'a mut Verts {
+    type Item = &'a mut P3;
+    type IntoIter = std::slice::IterMut<'a, P3>;
+    fn into_iter(self) -> Self::IntoIter {
+        self.iter_mut()
+    }
+}
+
+impl IntoIterator for Verts {
+    type Item = P3;
+    type IntoIter = std::vec::IntoIter<P3>;
+    fn into_iter(self) -> Self::IntoIter {
+        self.into_vec().into_iter()
+    }
+}
+
+impl Serialize for Verts {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        self[..].serialize(s)
+    }
+}
+
+impl<'de> Deserialize<'de> for Verts {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        Vec::<P3>::deserialize(d).map(Verts::from_vec)
+    }
 }
 
 /// Result of [`ConvexPolygon::split_exact`].
@@ -91,7 +346,17 @@ pub(crate) fn crossing(p: &P3, dp: f64, q: &P3, dq: f64) -> P3 {
 impl ConvexPolygon {
     /// Polygon with the given vertices (not checked).
     pub fn new(verts: Vec<P3>) -> Self {
-        ConvexPolygon { verts }
+        ConvexPolygon {
+            verts: Verts::from_vec(verts),
+        }
+    }
+
+    /// Polygon with the given vertices (not checked), without a heap block when they fit
+    /// inline.
+    pub fn from_slice(verts: &[P3]) -> Self {
+        ConvexPolygon {
+            verts: Verts::from_slice(verts),
+        }
     }
 
     /// Number of vertices.
@@ -580,6 +845,48 @@ mod tests {
 
     fn square(fr: &Frame, x0: f64, y0: f64, x1: f64, y1: f64) -> ConvexPolygon {
         poly(fr, &[[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
+    }
+
+    #[test]
+    fn verts_inline_up_to_three_and_behave_like_a_vec() {
+        assert_eq!(std::mem::size_of::<ConvexPolygon>(), 80);
+        let pts: Vec<P3> = (0..7).map(|k| [k as f64, -(k as f64), 0.5 * k as f64]).collect();
+        for n in 0..pts.len() {
+            let v = Verts::from_vec(pts[..n].to_vec());
+            assert_eq!(v.is_inline(), n <= INLINE_VERTS, "{n} vertices");
+            assert_eq!(&v[..], &pts[..n]);
+            // The same values whichever way they are held: equality, serde, Debug.
+            let heap = Verts(VertsRepr::Heap(pts[..n].to_vec()));
+            assert_eq!(v, heap);
+            let json = serde_json::to_string(&v).unwrap();
+            assert_eq!(json, serde_json::to_string(&pts[..n].to_vec()).unwrap());
+            assert_eq!(serde_json::from_str::<Verts>(&json).unwrap(), v);
+            assert_eq!(format!("{v:?}"), format!("{:?}", &pts[..n]));
+            let mut h = heap.clone();
+            h.shrink_to_fit();
+            assert_eq!(h.is_inline(), n <= INLINE_VERTS);
+            assert_eq!(h, v);
+            assert_eq!(v.clone().into_vec(), pts[..n].to_vec());
+        }
+        // Mutation across the inline/heap boundary, against a Vec.
+        let (mut v, mut w) = (Verts::new(), Vec::new());
+        for (k, p) in pts.iter().enumerate() {
+            v.push(*p);
+            w.push(*p);
+            if k % 3 == 2 {
+                v.insert(1, [9.0; 3]);
+                w.insert(1, [9.0; 3]);
+            }
+            assert_eq!(v, w);
+        }
+        while !w.is_empty() {
+            assert_eq!(v.remove(w.len() / 2), w.remove(w.len() / 2));
+            assert_eq!(v.pop(), w.pop());
+            assert_eq!(v, w);
+        }
+        assert_eq!(v.pop(), None);
+        let c: Verts = pts.iter().copied().collect();
+        assert_eq!(c, pts);
     }
 
     fn rel(a: f64, b: f64) -> f64 {

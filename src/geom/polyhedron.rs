@@ -636,7 +636,7 @@ impl ConvexPolyhedron {
                     nv.push(*x);
                 }
             }
-            face.verts = nv;
+            face.verts = nv.into();
         }
         self.faces.push(ConvexPolygon::new(b));
         self.tags.push(back_tag);

@@ -129,7 +129,7 @@ pub fn cells_obj_text(cx: &CellComplex, partition: &Partition, header: &str) -> 
         let faces: Vec<&[P3]> = p.pieces.iter().map(|q| &q.verts[..]).collect();
         let name = format!("Portal_{}_{}", p.cells[0].0, p.cells[1].0);
         object(&mut obj, &mut next, &name, "portal", &faces);
-        let pieces: Vec<Vec<P3>> = p.pieces.iter().map(|q| q.verts.clone()).collect();
+        let pieces: Vec<Vec<P3>> = p.pieces.iter().map(|q| q.verts.to_vec()).collect();
         if let Some(h) = convex_portal(&pieces) {
             object(
                 &mut obj,

@@ -241,7 +241,7 @@ pub fn cells_glb(ctx: &ExportContext<'_>) -> Result<Vec<u8>, OutputError> {
             }));
             merged_children.push(nodes.len() - 1);
         }
-        let pieces: Vec<Vec<P3>> = p.pieces.iter().map(|q| q.verts.clone()).collect();
+        let pieces: Vec<Vec<P3>> = p.pieces.iter().map(|q| q.verts.to_vec()).collect();
         if let Some(h) = crate::visibility::merged::convex_portal(&pieces) {
             let label = format!("Portal_{ida}_{idb}_hull");
             if let Some(m) = b.mesh(&label, &[&h.verts[..]], hull_material) {

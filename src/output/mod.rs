@@ -230,7 +230,7 @@ pub fn result_doc(
             cells: [p.cells[0].0, p.cells[1].0],
             area: p.area,
             mean_normal: p.mean_normal,
-            polygons: p.pieces.into_iter().map(|q| q.verts).collect(),
+            polygons: p.pieces.into_iter().map(|q| q.verts.into_vec()).collect(),
         })
         .collect();
     let stats: &ComplexStats = &cx.stats;

@@ -94,9 +94,11 @@ fn add_cracks(portals: &mut Vec<GraphPortal>, cx: &CellComplex, cell_of: impl Fn
         // Crack pieces point from `crack.cells[0]` (in `a`) to `crack.cells[1]` (in `b`).
         let forward = portals[k].cells == [a, b];
         for q in &crack.pieces {
-            portals[k]
-                .pieces
-                .push(if forward { q.verts.clone() } else { q.reversed().verts });
+            portals[k].pieces.push(if forward {
+                q.verts.to_vec()
+            } else {
+                q.reversed().verts.into_vec()
+            });
         }
     }
 }
@@ -115,7 +117,7 @@ impl PortalGraph {
                 let b = partition.cell_of(mp.cells[1])? as u32;
                 Some(GraphPortal {
                     cells: [a, b],
-                    pieces: mp.pieces.into_iter().map(|q| q.verts).collect(),
+                    pieces: mp.pieces.into_iter().map(|q| q.verts.into_vec()).collect(),
                 })
             })
             .collect();
@@ -144,7 +146,7 @@ impl PortalGraph {
                 let (a, b) = (index[p.cells[0].idx()], index[p.cells[1].idx()]);
                 (a != u32::MAX && b != u32::MAX && a != b).then(|| GraphPortal {
                     cells: [a, b],
-                    pieces: p.pieces.iter().map(|q| q.verts.clone()).collect(),
+                    pieces: p.pieces.iter().map(|q| q.verts.to_vec()).collect(),
                 })
             })
             .collect();
