@@ -33,19 +33,6 @@ fn complex_counts(m: &Model, t: &Tetrahedralization) -> Counts {
     }
 }
 
-fn tet_set(t: &Tetrahedralization) -> Vec<[u32; 4]> {
-    let mut v: Vec<[u32; 4]> = t
-        .tets()
-        .map(|(_, vs)| {
-            let mut k = vs.map(|x| x.0);
-            k.sort_unstable();
-            k
-        })
-        .collect();
-    v.sort_unstable();
-    v
-}
-
 fn tie_faces(t: &Tetrahedralization) -> usize {
     let mut n = 0;
     for (id, vs) in t.tets() {
@@ -95,13 +82,13 @@ fn main() {
         let t0 = Tetrahedralization::build(&m0.vertices).expect("tetrahedralization");
         let base = complex_counts(&m0, &t0);
         let ties = tie_faces(&t0);
-        let set0 = tet_set(&t0);
+        let set0 = t0.sorted_tets();
         for &v in &rigid {
             let (vs, ps) = apply(v, &c.model.vertices, &c.model.polygons);
             let m1 = from_soup(&c.name, vs, ps).expect("rigid variant loads");
             let t1 = Tetrahedralization::build(&m1.vertices).expect("tetrahedralization");
             let own = complex_counts(&m1, &t1);
-            let same = tet_set(&t1) == set0;
+            let same = t1.sorted_tets() == set0;
             let moved = if m1.vertices.len() == m0.vertices.len() {
                 t0.moved(&m1.vertices).map(|t| complex_counts(&m1, &t))
             } else {

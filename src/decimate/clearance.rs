@@ -2021,30 +2021,13 @@ mod tests {
             let key = |d: &Decimation| -> Vec<(u32, u32, u64)> {
                 d.steps.iter().map(|s| (s.a.0, s.b.0, s.weight.to_bits())).collect()
             };
-            let cold = run_inner(
-                &cx,
-                &field,
-                &mut cache,
-                &settings,
-                gate,
-                None,
-                None,
-                None,
-                &mut |_, _| {},
-            );
+            let run = |cache: &mut RefinedCache| {
+                run_inner(&cx, &field, cache, &settings, gate, None, None, None, &mut |_, _| {})
+            };
+            let cold = run(&mut cache);
             let before = cache.hits;
             let known = cache.value.iter().filter(|v| !v.is_nan()).count();
-            let warm = run_inner(
-                &cx,
-                &field,
-                &mut cache,
-                &settings,
-                gate,
-                None,
-                None,
-                None,
-                &mut |_, _| {},
-            );
+            let warm = run(&mut cache);
             assert_eq!(key(&cold), key(&warm), "{name}: steps");
             assert_eq!(cache.value.iter().filter(|v| !v.is_nan()).count(), known, "{name}");
             for (k, v) in cache.value.iter().enumerate() {

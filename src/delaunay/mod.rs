@@ -351,6 +351,20 @@ impl Tetrahedralization {
         (u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) + u[2] * (v[0] * w[1] - v[1] * w[0]))
             / 6.0
     }
+    /// Every finite tetrahedron as its sorted vertex ids, sorted: the combinatorics alone,
+    /// to compare two tetrahedralizations of the same input (vertex ids are input indices).
+    pub fn sorted_tets(&self) -> Vec<[u32; 4]> {
+        let mut v: Vec<[u32; 4]> = self.slots[..self.n_finite]
+            .iter()
+            .map(|s| {
+                let mut k = s.v;
+                k.sort_unstable();
+                k
+            })
+            .collect();
+        v.sort_unstable();
+        v
+    }
     /// The same triangulation with its vertices moved to `points` (indexed like the input,
     /// e.g. the input after a rotation). Used to separate what a rigid motion changes in the
     /// Delaunay tetrahedralization (cospherical ties, broken by a perturbation keyed to the

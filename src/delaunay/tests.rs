@@ -8,16 +8,7 @@ fn check(points: &[P3]) -> (Tetrahedralization, ValidationReport) {
 }
 
 fn canonical(t: &Tetrahedralization) -> Vec<[u32; 4]> {
-    let mut v: Vec<[u32; 4]> = t
-        .tets()
-        .map(|(_, v)| {
-            let mut k = v.map(|x| x.0);
-            k.sort_unstable();
-            k
-        })
-        .collect();
-    v.sort_unstable();
-    v
+    t.sorted_tets()
 }
 
 fn grid(k: usize) -> Vec<P3> {
