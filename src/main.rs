@@ -1007,16 +1007,27 @@ fn complex(
 ) -> Result<()> {
     let m = load(path)?;
     let mut bar = LazyBar::new();
+    // The complex `run` would use: the first level of the fallback ladder that passes the
+    // checks (or level 0's, which the validation below then reports).
+    let pipeline::Attempts { cells, valid } = pipeline::build_cells_attempts(&m, path, &how, &mut |p: Progress| {
+        bar.update(p.stage.name(), p.done, p.total)
+    })?;
+    drop(bar);
+    if !valid {
+        for r in &cells.rejected {
+            eprintln!(
+                "warning: the cell complex is invalid at tolerance level {}: {}",
+                r.level, r.error
+            );
+        }
+    }
     let pipeline::Cells {
         cx,
         stats,
         stages: pre,
         sealed,
         ..
-    } = pipeline::build_cells_unchecked(&m, path, &how, &mut |p: Progress| {
-        bar.update(p.stage.name(), p.done, p.total)
-    })?;
-    drop(bar);
+    } = cells;
     let stats = stats.to_json();
     let s = &cx.stats;
     println!("{:<44}{:>10}", "stage", "seconds");
@@ -1027,7 +1038,10 @@ fn complex(
         println!("{name:<44}{secs:>10.3}");
     }
     println!();
-    let rows: [(&str, String); 16] = [
+    for why in &s.rejected_levels {
+        eprintln!("warning: the cell complex was invalid at tolerance {why}");
+    }
+    let rows: [(&str, String); 17] = [
         ("model polygons", s.polygons.to_string()),
         ("tetrahedra", s.tetrahedra.to_string()),
         (
@@ -1068,6 +1082,10 @@ fn complex(
         ),
         ("leaks", s.leaks.to_string()),
         ("openings sealed", s.openings_sealed.to_string()),
+        (
+            "tolerance level (0: the model's own)",
+            format!("{} (plane {:.0e})", s.tolerance_level, cx.tol.plane),
+        ),
         ("hull volume", format!("{:.6e}", cx.hull_volume)),
     ];
     for (k, v) in rows {
@@ -1645,6 +1663,23 @@ fn gap_hint(cx: &portalfind::complex::CellComplex, m: &portalfind::model::Model)
 /// Warnings a user must not miss: leaks, and a model whose every region was removed
 /// (typically polygons facing away from free space, the opposite of our convention).
 fn report_leaks_and_orientation(cx: &portalfind::complex::CellComplex, m: &portalfind::model::Model) {
+    if cx.stats.tolerance_level > 0 {
+        for why in &cx.stats.rejected_levels {
+            eprintln!("warning: the cell complex was invalid at tolerance {why}");
+        }
+        eprintln!(
+            "warning: so the cell complex was built at fallback tolerance level {} (weld {:.0e}, plane {:.0e}, \
+             coplanar {:.0e} of the diagonal instead of {:.0e}, {:.0e}, {:.0e}): vertices and planes that \
+             close count as coincident; this is recorded in result.json (`complex.tolerance_level`)",
+            cx.stats.tolerance_level,
+            cx.tol.weld,
+            cx.tol.plane,
+            cx.tol.coplanar,
+            m.tolerances.weld,
+            m.tolerances.plane,
+            m.tolerances.coplanar
+        );
+    }
     for (i, l) in cx.leaks.iter().enumerate() {
         eprintln!(
             "warning: leak {i}: the region of {} cells reaches the outside near ({:.3}, {:.3}, {:.3}); \

@@ -40,6 +40,7 @@ use crate::decimate::Decimation;
 use crate::delaunay::{DelaunayError, Tetrahedralization};
 use crate::model::{Model, ModelError};
 use crate::output::{self, OutputError, ResultDoc};
+use crate::tolerances::{FALLBACK_LEVELS, Tolerances};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::path::Path;
@@ -299,11 +300,13 @@ pub enum PipelineError {
     /// The cell complex came out invalid (a bug or an input it cannot handle yet): the
     /// run stops rather than decimate a broken complex.
     #[error(
-        "the cell complex of {model} is invalid; please report the model (`portalfind complex MODEL` prints the full validation)"
+        "the cell complex of {model} is invalid at the model's tolerances and at every fallback level ({levels} built); please report the model (`portalfind complex MODEL` prints the full validation)"
     )]
     InvalidComplex {
         /// The model's path or name.
         model: String,
+        /// Levels built and rejected ([`Tolerances::fallback`]).
+        levels: usize,
         /// The first violated invariant.
         #[source]
         source: crate::complex::ComplexError,
@@ -335,8 +338,12 @@ pub struct Cells {
     /// ([`peak_rss_mib`]; empty where it cannot be read).
     pub memory: Vec<(String, f64)>,
     /// Timed stages after the complex's own: [`build_cells`]' checks ([`CHECKS_STAGE`];
-    /// empty from [`build_cells_unchecked`]).
+    /// empty from [`build_cells_unchecked`]), after the time spent on rejected levels
+    /// ([`REJECTED_STAGE`]) when there were any.
     pub checks: Vec<(String, f64)>,
+    /// The levels of [`build_cells`]' fallback ladder that were built and failed the
+    /// checks, in order (empty when the model's own tolerances gave a valid complex).
+    pub rejected: Vec<RejectedLevel>,
 }
 
 /// The process's peak resident memory so far in MiB (Linux `VmHWM`; `None` elsewhere):
@@ -387,26 +394,130 @@ pub fn complex_of_unchecked(model: &Model) -> Result<CellComplex, PipelineError>
     Ok(build_cells_unchecked(model, &label, &CellSettings::default(), &mut |_| {})?.cx)
 }
 
-/// The one dispatch on the subdivision: the cell complex of `model`. `label` names the
-/// model in errors (its path).
+/// The one dispatch on the subdivision: the cell complex of `model`, checked. `label`
+/// names the model in errors (its path).
+///
+/// The complex is built at the model's tolerances and checked ([`check`]: every cell a
+/// valid convex polyhedron, no model polygon crossing a cell); when the check fails, it
+/// is built again at the fallback levels 1..=[`FALLBACK_LEVELS`] of
+/// [`Tolerances::fallback`] in turn, and the first that passes is returned with its level
+/// in `cx.stats.tolerance_level` and the rejected levels in [`Cells::rejected`]. When
+/// none passes, the error names level 0's violated invariant.
 pub fn build_cells(
     model: &Model,
     label: &Path,
     settings: &CellSettings,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<Cells, PipelineError> {
-    let mut cells = build_cells_unchecked(model, label, settings, progress)?;
-    // The cheap structural check on every build: never decimate (or write) a broken
-    // complex. The full validation (`CellComplex::validate`) is `portalfind complex`'s.
-    // A model polygon crossing a cell (a wall the portal graph does not see) is as
-    // invalid: `run` must not exit 0 on it.
-    let t0 = Instant::now();
-    check(&cells.cx, model).map_err(|source| PipelineError::InvalidComplex {
+    let attempts = build_cells_attempts(model, label, settings, progress)?;
+    if attempts.valid {
+        return Ok(attempts.cells);
+    }
+    let levels = attempts.cells.rejected.len();
+    let source = attempts
+        .cells
+        .rejected
+        .into_iter()
+        .next()
+        .expect("a rejected level")
+        .error;
+    Err(PipelineError::InvalidComplex {
         model: label.display().to_string(),
+        levels,
         source,
-    })?;
-    cells.checks.push((CHECKS_STAGE.into(), t0.elapsed().as_secs_f64()));
-    Ok(cells)
+    })
+}
+
+/// A level of [`build_cells`]' fallback ladder whose complex failed the checks.
+#[derive(Debug)]
+pub struct RejectedLevel {
+    /// The level ([`Tolerances::fallback`]).
+    pub level: u32,
+    /// The tolerances used.
+    pub tolerances: Tolerances,
+    /// The first violated invariant.
+    pub error: crate::complex::ComplexError,
+    /// Seconds spent building and checking it.
+    pub seconds: f64,
+}
+
+/// The outcome of [`build_cells_attempts`].
+pub struct Attempts {
+    /// The cells of the first level that passed the checks, or level 0's when none did.
+    pub cells: Cells,
+    /// Whether `cells` passed the checks.
+    pub valid: bool,
+}
+
+/// The stage name of the time spent on rejected levels of the fallback ladder (in
+/// [`Cells::checks`]).
+pub const REJECTED_STAGE: &str = "rejected complexes (fallback tolerances)";
+
+/// [`build_cells`]' ladder without turning its failure into an error: the complex of the
+/// first level that passes the checks, or level 0's complex when none does (for
+/// `portalfind complex`, which prints the full validation of what it got).
+pub fn build_cells_attempts(
+    model: &Model,
+    label: &Path,
+    settings: &CellSettings,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Attempts, PipelineError> {
+    let mut rejected: Vec<RejectedLevel> = Vec::new();
+    let mut first: Option<Cells> = None;
+    let mut rejected_seconds = 0.0;
+    for level in 0..=FALLBACK_LEVELS {
+        let t0 = Instant::now();
+        let coarser;
+        let m = if level == 0 {
+            model
+        } else {
+            coarser = Model {
+                tolerances: model.tolerances.fallback(level),
+                ..model.clone()
+            };
+            &coarser
+        };
+        let mut cells = build_cells_unchecked(m, label, settings, progress)?;
+        // The cheap structural check on every build: never decimate (or write) a broken
+        // complex. The full validation (`CellComplex::validate`) is `portalfind complex`'s.
+        // A model polygon crossing a cell (a wall the portal graph does not see) is as
+        // invalid: `run` must not exit 0 on it.
+        let t1 = Instant::now();
+        let r = check(&cells.cx, m);
+        let check_seconds = t1.elapsed().as_secs_f64();
+        match r {
+            Ok(()) => {
+                cells.cx.stats.tolerance_level = level;
+                cells.cx.stats.rejected_levels = rejected
+                    .iter()
+                    .map(|r| format!("level {}: {}", r.level, r.error))
+                    .collect();
+                if rejected_seconds > 0.0 {
+                    cells.checks.push((REJECTED_STAGE.into(), rejected_seconds));
+                }
+                cells.checks.push((CHECKS_STAGE.into(), check_seconds));
+                cells.rejected = rejected;
+                return Ok(Attempts { cells, valid: true });
+            }
+            Err(error) => {
+                let seconds = t0.elapsed().as_secs_f64();
+                rejected_seconds += seconds;
+                rejected.push(RejectedLevel {
+                    level,
+                    tolerances: m.tolerances,
+                    error,
+                    seconds,
+                });
+                if first.is_none() {
+                    cells.checks.push((CHECKS_STAGE.into(), check_seconds));
+                    first = Some(cells);
+                }
+            }
+        }
+    }
+    let mut cells = first.expect("level 0 was built");
+    cells.rejected = rejected;
+    Ok(Attempts { cells, valid: false })
 }
 
 /// The stage name of [`build_cells`]' checks (in [`Cells::checks`] and [`Run::stages`]).
@@ -480,6 +591,7 @@ fn build_cells_unsealed(
                 sealed: Vec::new(),
                 memory,
                 checks: Vec::new(),
+                rejected: Vec::new(),
             })
         }
         Subdivision::Bsp => {
@@ -491,6 +603,7 @@ fn build_cells_unsealed(
                 sealed: Vec::new(),
                 memory: Vec::new(),
                 checks: Vec::new(),
+                rejected: Vec::new(),
             })
         }
     }

@@ -70,6 +70,25 @@ impl Tolerances {
     pub fn snap_abs(&self) -> f64 {
         self.weld_abs().max(self.plane_abs())
     }
+    /// The tolerances of fallback level `level` (0: `self`): `weld`, `plane` and `coplanar`
+    /// multiplied by `10^level`, `area` unchanged. [`crate::pipeline::build_cells`] builds
+    /// the complex again at levels 1..=[`FALLBACK_LEVELS`] when the complex at the model's
+    /// own tolerances fails its checks: coarser bands put a vertex that rounding or input
+    /// noise left a hair off a cut plane *on* it, and let nearly coplanar polygons share
+    /// one support plane, which removes the sliver wedges between them where the
+    /// splitting's decisions disagree. Welding on input is not redone (the model keeps
+    /// its vertices); the larger weld distance only widens the complex's snapping band
+    /// ([`snap_abs`](Self::snap_abs)). A complex built at a fallback level is reported as
+    /// such (`ComplexStats::tolerance_level`, `run`'s warning), never silently.
+    pub fn fallback(&self, level: u32) -> Tolerances {
+        let f = 10f64.powi(level as i32);
+        Tolerances {
+            weld: self.weld * f,
+            plane: self.plane * f,
+            coplanar: self.coplanar * f,
+            ..*self
+        }
+    }
     /// The tolerances for a split that *seals a crack*: a cell crossed by model polygons
     /// whose cross-section is covered by them up to cracks (narrower than
     /// [`sliver_width`](Self::sliver_width)) must be split even when that section is below
@@ -84,6 +103,10 @@ impl Tolerances {
         }
     }
 }
+
+/// The most fallback levels [`Tolerances::fallback`] tries after the model's own
+/// tolerances (level 3: weld 1e-4, plane 1e-6, coplanar 1e-3 of the diagonal).
+pub const FALLBACK_LEVELS: u32 = 3;
 
 impl Default for Tolerances {
     fn default() -> Self {

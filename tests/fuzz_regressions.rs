@@ -109,3 +109,61 @@ fn unfixed_finds_are_refused_by_run() {
     }
     eprintln!("{n} refusals");
 }
+
+/// Finds whose complex fails the checks at the model's own tolerances and passes at a
+/// fallback level of `pipeline::build_cells`' ladder (`Tolerances::fallback`): the
+/// fuzzer's check (which runs the ladder, then the full validation) passes on each, and
+/// each needs the ladder for at least one subdivision — when a find starts to pass at
+/// level 0 (a root-cause fix in the complex), move it up to `pipeline/`.
+#[test]
+fn fallback_finds_pass_through_the_ladder_only() {
+    use portalfind::pipeline::{CellSettings, Subdivision, build_cells_attempts};
+    let f = failures("fallback");
+    assert!(f.is_empty(), "{f:#?}");
+    let files = files(Target::Pipeline, "fallback");
+    assert!(!files.is_empty());
+    for p in files {
+        let m = portalfind::model::load_model(&p).expect("loads");
+        let mut levels = Vec::new();
+        for sub in Subdivision::ALL {
+            let a = build_cells_attempts(&m, &p, &CellSettings::of(sub), &mut |_| {}).expect("builds");
+            assert!(a.valid, "{sub} {}", p.display());
+            assert_eq!(a.cells.cx.stats.tolerance_level as usize, a.cells.rejected.len());
+            assert!(a.cells.cx.validate(&m).is_ok(), "{sub} {}", p.display());
+            levels.push(a.cells.cx.stats.tolerance_level);
+        }
+        eprintln!("{}: levels {levels:?}", p.display());
+        assert!(
+            levels.iter().any(|&l| l > 0),
+            "{} passes at level 0 now: move it up to pipeline/",
+            p.display()
+        );
+    }
+}
+
+/// `run` on a find that needs the ladder: exits 0, warns with level 0's violation and the
+/// level used, and records both in `result.json`; the base binary before the ladder
+/// refused it with `InvalidComplex`.
+#[test]
+fn run_reports_the_fallback_level() {
+    let model = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/fuzz/pipeline/fallback/delaunay_validate_model_polygon_n_crosses_the_in-0b2b461d.obj");
+    let out = std::env::temp_dir().join(format!("portalfind-fallback-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_portalfind"))
+        .arg("run")
+        .arg(&model)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .expect("runs");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("invalid at tolerance level 0: model polygon"), "{err}");
+    assert!(err.contains("fallback tolerance level 1"), "{err}");
+    let doc: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("result.json")).unwrap()).unwrap();
+    assert_eq!(doc["complex"]["tolerance_level"], 1);
+    let why = doc["complex"]["rejected_levels"][0].as_str().unwrap();
+    assert!(why.starts_with("level 0: model polygon"), "{why}");
+    std::fs::remove_dir_all(&out).unwrap();
+}

@@ -153,6 +153,10 @@ pub struct Leak {
     pub hull_point: [f64; 3],
 }
 
+fn is_zero(x: &u32) -> bool {
+    *x == 0
+}
+
 /// Counts and timings in the thesis's terms.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct ComplexStats {
@@ -205,6 +209,16 @@ pub struct ComplexStats {
     pub leaks: usize,
     /// Openings sealed by [`CellComplex::seal_holes`] (holes, each of one or more portals).
     pub openings_sealed: usize,
+    /// The fallback level of the tolerances this complex was built with
+    /// ([`crate::Tolerances::fallback`]; 0: the model's own). Set by
+    /// [`crate::pipeline::build_cells`] when the complex at the lower levels failed its
+    /// checks. Not serialized when 0.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub tolerance_level: u32,
+    /// Why the lower levels were rejected, one line each (`level K: <violated
+    /// invariant>`); empty (and not serialized) at level 0.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub rejected_levels: Vec<String>,
     /// Stage timings in seconds, in order.
     pub timings: Vec<(String, f64)>,
     /// The process's peak resident memory (MiB, Linux `VmHWM`) at the end of each stage of

@@ -257,13 +257,25 @@ fn check_inner(target: Target, bytes: &[u8], limits: &Limits) -> Outcome {
     }
     for sub in Subdivision::ALL {
         let label = PathBuf::from("fuzz.obj");
-        let cells = match pipeline::build_cells_unchecked(&m, &label, &CellSettings::of(sub), &mut |_| {}) {
-            Ok(c) => c,
+        // `run`'s build: the fallback ladder of `build_cells`. A case fails when no level
+        // passes the checks (bucketed by level 0's violation, as before the ladder), or
+        // when the full validation rejects the complex the checks passed.
+        let attempts = match pipeline::build_cells_attempts(&m, &label, &CellSettings::of(sub), &mut |_| {}) {
+            Ok(a) => a,
             Err(e) => {
                 let _ = e.to_string();
                 return Outcome::Refused;
             }
         };
+        let cells = attempts.cells;
+        if !attempts.valid {
+            let e = &cells.rejected[0].error;
+            let kind = match e {
+                crate::complex::ComplexError::Crossing { .. } => "validate",
+                _ => "cells",
+            };
+            return fail(&format!("{sub} {kind}"), &e.to_string());
+        }
         if let Err(e) = cells.cx.check_valid() {
             return fail(&format!("{sub} cells"), &e.to_string());
         }

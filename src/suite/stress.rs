@@ -268,6 +268,9 @@ pub struct Row {
     /// ([`crate::complex::CellComplex::seal_holes`], `run --seal-holes SIZE`), on a copy of
     /// the complex; `None` when there is no leak or no gap.
     pub leaks_sealed_4gap: Option<usize>,
+    /// The fallback tolerance level the complex was built at
+    /// ([`crate::Tolerances::fallback`]; 0: the model's own).
+    pub tolerance_level: u32,
     /// Interior regions.
     pub regions: usize,
     /// Active cells.
@@ -330,6 +333,7 @@ pub fn run_case(c: &SuiteCase, variants: &[Variant], progress: &mut dyn FnMut(&s
             widest_gap: 0.0,
             leaks: 0,
             leaks_sealed_4gap: None,
+            tolerance_level: 0,
             regions: 0,
             active_cells: 0,
             final_portals: 0,
@@ -365,6 +369,7 @@ pub fn run_case(c: &SuiteCase, variants: &[Variant], progress: &mut dyn FnMut(&s
                     row.validation = format!("invalid: {e}");
                 }
                 row.leaks = cx.stats.leaks;
+                row.tolerance_level = cx.stats.tolerance_level;
                 row.regions = cx.stats.interior_regions;
                 row.active_cells = cx.stats.active_cells;
                 if row.leaks > 0 && gap > 0.0 {
@@ -412,8 +417,9 @@ pub fn headline(rows: &[Row]) -> String {
     let leaky_closed = rows.iter().filter(|r| r.leaks > 0 && r.closed).count();
     let sealed = rows.iter().filter(|r| r.leaks_sealed_4gap == Some(0)).count();
     let moved = rows.iter().filter(|r| !r.same_rooms).count();
+    let fallback = rows.iter().filter(|r| r.tolerance_level > 0).count();
     format!(
-        "{} variants: {invalid} fail validation, {leaky} leak ({leaky_closed} with a closed input; {sealed} sealed by --seal-holes 4 x widest gap), {moved} isolate other rooms than the unmoved model",
+        "{} variants: {invalid} fail validation ({fallback} valid only at a fallback tolerance level), {leaky} leak ({leaky_closed} with a closed input; {sealed} sealed by --seal-holes 4 x widest gap), {moved} isolate other rooms than the unmoved model",
         rows.len()
     )
 }
@@ -421,12 +427,12 @@ pub fn headline(rows: &[Row]) -> String {
 /// The table as Markdown.
 pub fn table(rows: &[Row]) -> String {
     let mut s = String::from(
-        "| model | variant | validation | closed | widest gap | leaks | leaks sealed 4 x gap | regions | active cells | final portals | rooms isolated | same rooms | s |\n|---|---|---|---|---:|---:|---:|---:|---:|---:|---:|---|---:|\n",
+        "| model | variant | validation | closed | widest gap | leaks | leaks sealed 4 x gap | tolerance level | regions | active cells | final portals | rooms isolated | same rooms | s |\n|---|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|\n",
     );
     for r in rows {
         let v: String = r.validation.chars().take(70).collect();
         s += &format!(
-            "| {} | {} | {} | {} | {:.1e} | {} | {} | {} | {} | {} | {}/{} | {} | {:.2} |\n",
+            "| {} | {} | {} | {} | {:.1e} | {} | {} | {} | {} | {} | {} | {}/{} | {} | {:.2} |\n",
             r.model,
             r.variant,
             v,
@@ -434,6 +440,7 @@ pub fn table(rows: &[Row]) -> String {
             r.widest_gap,
             r.leaks,
             r.leaks_sealed_4gap.map_or("-".to_string(), |l| l.to_string()),
+            r.tolerance_level,
             r.regions,
             r.active_cells,
             r.final_portals,
