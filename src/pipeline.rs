@@ -400,7 +400,8 @@ pub fn complex_of_unchecked(model: &Model) -> Result<CellComplex, PipelineError>
 /// The complex is built at the model's tolerances and checked ([`check`]: every cell a
 /// valid convex polyhedron, no model polygon crossing a cell); when the check fails, it
 /// is built again at the fallback levels 1..=[`FALLBACK_LEVELS`] of
-/// [`Tolerances::fallback`] in turn, and the first that passes is returned with its level
+/// [`Tolerances::fallback`] in turn, each of which must pass the check *and* the full
+/// validation ([`CellComplex::validate`]), and the first that passes is returned with its level
 /// in `cx.stats.tolerance_level` and the rejected levels in [`Cells::rejected`]. When
 /// none passes, the error names level 0's violated invariant.
 pub fn build_cells(
@@ -482,8 +483,18 @@ pub fn build_cells_attempts(
         // complex. The full validation (`CellComplex::validate`) is `portalfind complex`'s.
         // A model polygon crossing a cell (a wall the portal graph does not see) is as
         // invalid: `run` must not exit 0 on it.
+        // A fallback level must pass the full validation too (it is already the slow
+        // path, and its coarser bands must not trade a failed check for a subtler
+        // violation: a fuzz find's BSP complex passed the checks at levels 1-3 with a
+        // patch whose portal area missed 1e-3 of it).
         let t1 = Instant::now();
-        let r = check(&cells.cx, m);
+        let r = check(&cells.cx, m).and_then(|()| {
+            if level == 0 {
+                Ok(())
+            } else {
+                cells.cx.validate(m).map(|_| ())
+            }
+        });
         let check_seconds = t1.elapsed().as_secs_f64();
         match r {
             Ok(()) => {

@@ -589,13 +589,19 @@ fn crack_crossing(
 /// An upper bound of the rounding error of [`ConvexPolyhedron::volume`]: the volume is a
 /// sum over each face's fan triangles of `a · (b × c) / 6` with `a`, `b`, `c` relative to
 /// a reference vertex, each at most the cell's bounding-box diagonal `d` long; each term
-/// is off by at most ~`4 ε d³`, so the bound is `8 ε d³ / 6` per fan triangle (a factor
-/// two of slack).
+/// is off by at most ~`4 ε d³` from the arithmetic, so the bound is `8 ε d³ / 6` per fan
+/// triangle (a factor two of slack). Far from the origin the differences themselves round:
+/// a coordinate of magnitude `M` (the cell's largest) is only known to `ε M`, and a
+/// constructed vertex rounded there leaves a face non-planar by as much, so the fans of its
+/// two cells (from different reference vertices) disagree by up to ~`ε M d²` per
+/// triangle: the bound uses `d²·(d + M)` for `d³` (a small model at 1e5, fuzz find
+/// `delaunay_validate_..._occl-98269067`: cell volumes 3e-9 relative off the hull's).
 fn volume_rounding(p: &ConvexPolyhedron) -> f64 {
     let (lo, hi) = p.aabb();
     let d = crate::base::vec::dist(&lo, &hi);
+    let m = (0..3).map(|k| lo[k].abs().max(hi[k].abs())).fold(0.0, f64::max);
     let triangles: usize = p.faces.iter().map(|f| f.verts.len().saturating_sub(2)).sum();
-    8.0 * f64::EPSILON * d * d * d * triangles as f64 / 6.0
+    8.0 * f64::EPSILON * d * d * (d + m) * triangles as f64 / 6.0
 }
 
 fn bbox(v: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
