@@ -492,6 +492,11 @@ enum BenchCmd {
         /// 3 models × 9 variants instead of 10 × 21.
         #[arg(long)]
         quick: bool,
+        /// Instead of the table's models, the generated families (tessellated, greedy,
+        /// multi-storey buildings; caverns) at these seeds (e.g. `--seeds 2,3`: models the
+        /// table never saw), without the thesis models.
+        #[arg(long, value_delimiter = ',')]
+        seeds: Option<Vec<u64>>,
         /// Output directory.
         #[arg(long, default_value = "results/stress")]
         out: PathBuf,
@@ -778,8 +783,13 @@ fn run(cli: Cli) -> Result<()> {
                 println!("wrote {}/{{scale.csv,scale.json,table.md,scale.svg}}", out.display());
                 Ok(())
             }
-            BenchCmd::Stress { quick, out } => {
-                let rows = portalfind::suite::stress::run(quick, &mut |what| eprintln!("{what}"));
+            BenchCmd::Stress { quick, seeds, out } => {
+                use portalfind::suite::stress;
+                let models = match &seeds {
+                    Some(s) => stress::generated_models(s),
+                    None => stress::models(quick),
+                };
+                let rows = stress::run_models(&models, quick, &mut |what| eprintln!("{what}"));
                 portalfind::suite::stress::write_all(&rows, &out)
                     .with_context(|| format!("cannot write into {}", out.display()))?;
                 println!("{}", portalfind::suite::stress::table(&rows));

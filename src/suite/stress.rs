@@ -401,10 +401,33 @@ pub fn run_case(c: &SuiteCase, variants: &[Variant], progress: &mut dyn FnMut(&s
 
 /// The whole table.
 pub fn run(quick: bool, progress: &mut dyn FnMut(&str)) -> Vec<Row> {
+    run_models(&models(quick), quick, progress)
+}
+
+/// The generated families of the table (buildings: tessellated, greedy, multi-storey;
+/// caverns) at each of `seeds`, without the thesis models: `bench stress --seeds` runs
+/// them on seeds other than the table's seed 1, models no setting was tuned on.
+pub fn generated_models(seeds: &[u64]) -> Vec<(Family, u64)> {
+    seeds
+        .iter()
+        .flat_map(|&s| {
+            [
+                Family::Tessellated,
+                Family::Greedy,
+                Family::MultiStorey,
+                Family::Caverns,
+            ]
+            .map(|f| (f, s))
+        })
+        .collect()
+}
+
+/// The table of `models` (family and seed) under the full (or quick) variants.
+pub fn run_models(models: &[(Family, u64)], quick: bool, progress: &mut dyn FnMut(&str)) -> Vec<Row> {
     let vs = variants(quick);
-    models(quick)
-        .into_iter()
-        .filter_map(|(f, s)| case(f, s))
+    models
+        .iter()
+        .filter_map(|&(f, s)| case(f, s))
         .flat_map(|c| run_case(&c, &vs, progress))
         .collect()
 }
