@@ -83,25 +83,53 @@ fn two_sum(a: f64, b: f64) -> (f64, f64) {
     (s, (a - av) + (b - bv))
 }
 
-/// The recentring vector of coordinates spanning `[lo, hi]`, and each axis's quantum: on
-/// each axis whose rounding unit `f64::EPSILON * max|x_k|` exceeds `plane`,
-/// `c_k = round(mid_k / U_k) * U_k` with `U_k` the ulp of the largest |coordinate| there
-/// (a multiple of every coordinate's own ulp on that axis but those of smaller binades,
-/// which [`first_inexact`] checks); 0 elsewhere. Division and multiplication by the power
-/// of two `U_k` are exact.
-fn recentring(lo: [f64; 3], hi: [f64; 3], plane: f64) -> ([f64; 3], [f64; 3]) {
+/// The candidate recentring of coordinates spanning `[lo, hi]`: per axis
+/// `c_k = round(mid_k / U_k) * U_k` with `U_k` the ulp of the largest |coordinate| there (a
+/// multiple of every coordinate's own ulp on that axis but those of smaller binades, which
+/// [`first_inexact`] checks; division and multiplication by the power of two `U_k` are
+/// exact), `U_k`, and whether the axis *needs* it (its rounding unit
+/// `f64::EPSILON * max|x_k|` exceeds `plane`).
+fn recentring(lo: [f64; 3], hi: [f64; 3], plane: f64) -> ([f64; 3], [f64; 3], [bool; 3]) {
     let mut c = [0.0; 3];
     let mut quantum = [0.0; 3];
+    let mut needs = [false; 3];
     for k in 0..3 {
         let m = lo[k].abs().max(hi[k].abs());
-        if coordinate_unit(m) > plane {
+        if m > 0.0 {
             let u = ulp(m);
             let mid = lo[k] + 0.5 * (hi[k] - lo[k]);
             c[k] = (mid / u).round() * u;
             quantum[k] = u;
+            needs[k] = coordinate_unit(m) > plane;
         }
     }
-    (c, quantum)
+    (c, quantum, needs)
+}
+
+/// The exact recentring of `pts` (those flagged by `check`), spanning `[lo, hi]`: the
+/// candidates of [`recentring`] on every axis where they move every checked coordinate
+/// exactly; an axis that does not need a translation and has no exact one keeps 0 (its
+/// coordinates are fine enough as they are, e.g. an axis through the origin with fine
+/// digits). `Err((vertex, axis))` when an axis that needs one has none. Translating the
+/// axes that do not need it too keeps every coordinate small: at 5e7 on x and 3.4e7 on y,
+/// y's unit 7.5e-9 is under a plane tolerance of 9.2e-9, but points constructed that near
+/// the tolerance broke a fuzz find's volume sum when only x moved.
+fn exact_recentring(
+    pts: &[[f64; 3]],
+    check: impl Fn(usize) -> bool,
+    lo: [f64; 3],
+    hi: [f64; 3],
+    plane: f64,
+) -> Result<([f64; 3], [f64; 3]), (usize, usize)> {
+    let (mut c, mut quantum, needs) = recentring(lo, hi, plane);
+    while let Some((v, k)) = first_inexact(pts.iter().enumerate().map(|(i, p)| (p, check(i))), c) {
+        if needs[k] {
+            return Err((v, k));
+        }
+        c[k] = 0.0;
+        quantum[k] = 0.0;
+    }
+    Ok((c, quantum))
 }
 
 /// The first (vertex, axis) among the points flagged `true` whose coordinate minus `c`
@@ -215,20 +243,23 @@ pub(crate) fn clean(name: &str, file: &str, soup: Soup) -> Result<Model, ModelEr
             diag,
             reason,
         };
-        let (c, quantum) = recentring(lo, hi, plane);
         // Referenced vertices, and the others a referenced vertex could be welded into.
         let margin = 2.0 * tolerances.weld_abs();
         let near = |p: &[f64; 3]| (0..3).all(|k| p[k] >= lo[k] - margin && p[k] <= hi[k] + margin);
-        let checked = vertices.iter().zip(&referenced).map(|(p, &r)| (p, r || near(p)));
-        if let Some((v, k)) = first_inexact(checked, c) {
-            return Err(refuse(format!(
-                "vertex {v} (0-based) has coordinate {:?} on axis {}, which the translation by {:?} there cannot \
-                 move exactly (magnitudes too different along that axis)",
-                vertices[v][k],
-                ["x", "y", "z"][k],
-                c[k]
-            )));
-        }
+        let check = |i: usize| referenced[i] || near(&vertices[i]);
+        let (c, quantum) = match exact_recentring(&vertices, check, lo, hi, plane) {
+            Ok(cq) => cq,
+            Err((v, k)) => {
+                let (c, _, _) = recentring(lo, hi, plane);
+                return Err(refuse(format!(
+                    "vertex {v} (0-based) has coordinate {:?} on axis {}, which the translation by {:?} there \
+                     cannot move exactly (magnitudes too different along that axis)",
+                    vertices[v][k],
+                    ["x", "y", "z"][k],
+                    c[k]
+                )));
+            }
+        };
         for p in vertices.iter_mut() {
             for k in 0..3 {
                 p[k] -= c[k];
@@ -768,15 +799,11 @@ mod tests {
                 let s = m.report.to_string();
                 assert!(s.contains("translated by [") && s.contains("exactly"), "{s}");
                 assert!(t.unit > t.plane && t.by == m.origin, "{t:?}");
-                // Per axis: only axes whose own unit exceeds the tolerance move (at 1e7
-                // only x: |y| = 7e6 has unit 1.6e-9).
+                // Every axis moves, also y at 1e7 (|y| = 7e6, unit 1.6e-9, would pass).
                 for k in 0..3 {
-                    assert_eq!(t.quantum[k] == 0.0, t.by[k] == 0.0, "{t:?}");
-                    if t.quantum[k] != 0.0 {
-                        assert_eq!((t.by[k] / t.quantum[k]).fract(), 0.0, "{t:?}");
-                    }
+                    assert!(t.quantum[k] > 0.0 && t.by[k] != 0.0, "{t:?}");
+                    assert_eq!((t.by[k] / t.quantum[k]).fract(), 0.0, "{t:?}");
                 }
-                assert_eq!(t.by[1] == 0.0, offset == 1e7, "{t:?}");
                 let after = m.vertices.iter().flatten().fold(0.0f64, |a, x| a.max(x.abs()));
                 assert!(coordinate_unit(after) <= m.tolerances.plane_abs());
             }
@@ -816,8 +843,11 @@ mod tests {
             let (lo, hi) = bbox_of(pts.iter());
             let diag = (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum::<f64>().sqrt();
             let plane = Tolerances::for_scale(diag).plane_abs();
-            let (c, quantum) = recentring(lo, hi, plane);
-            translated += (c != [0.0; 3]) as usize;
+            if (0..3).all(|k| coordinate_unit(lo[k].abs().max(hi[k].abs())) <= plane) {
+                continue; // `clean` translates only when some axis needs it
+            }
+            let (c, quantum) = exact_recentring(&pts, |_| true, lo, hi, plane).unwrap();
+            translated += 1;
             assert_eq!(first_inexact(pts.iter().map(|p| (p, true)), c), None, "trial {trial}");
             for p in &pts {
                 for k in 0..3 {
@@ -854,7 +884,7 @@ mod tests {
             pts.push([lattice(-0.5 * m); 3]);
             pts.push([lattice(m); 3]);
             let (lo, hi) = bbox_of(pts.iter());
-            let (c, quantum) = recentring(lo, hi, 0.0);
+            let (c, quantum, _) = recentring(lo, hi, 0.0);
             let inexact = first_inexact(pts.iter().map(|p| (p, true)), c).is_some();
             assert_eq!(
                 inexact,
@@ -879,9 +909,17 @@ mod tests {
         // the check is exercised here directly.
         let pts = [[1e9, 0.0, 0.0], [0.1, 0.0, 0.0], [5e8, 0.0, 0.0]];
         let (lo, hi) = bbox_of(pts.iter());
-        let (c, _) = recentring(lo, hi, 0.0);
+        let (c, _, _) = recentring(lo, hi, 0.0);
         assert!(c[0] != 0.0);
         assert_eq!(first_inexact(pts.iter().map(|p| (p, true)), c), Some((1, 0)));
+        assert_eq!(exact_recentring(&pts, |_| true, lo, hi, 0.0), Err((1, 0)));
+        // An axis that does not need a translation and has no exact one keeps 0: x through
+        // the origin with fine digits, beside a z far away.
+        let pts = [[0.1, 0.0, 1e9], [-5.0, 1.0, 1e9 + 3.0], [9.0, 2.0, 1e9 + 1.0]];
+        let (lo, hi) = bbox_of(pts.iter());
+        let (c, q) = exact_recentring(&pts, |_| true, lo, hi, 1e-8).unwrap();
+        assert_eq!((c[0], q[0]), (0.0, 0.0));
+        assert!(c[1] == 1.0 && c[2] != 0.0, "{c:?}");
         // Unflagged points are not checked.
         assert_eq!(first_inexact(pts.iter().map(|p| (p, p[0] != 0.1)), c), None);
         let e = ModelError::Precision {

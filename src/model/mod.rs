@@ -63,10 +63,12 @@
 //!    rounding unit of its coordinates, so when `f64::EPSILON` × largest |coordinate| exceeds
 //!    [`Tolerances::plane_abs`] (1e-9 of the diagonal; e.g. a model of size 15 at offset
 //!    1e9, unit 2.2e-7 against 1.5e-8) the on-plane decisions of the cell complex would be
-//!    arbitrary. Such a model is translated by a vector `c` before anything else: on each
-//!    axis whose own unit exceeds the tolerance, `c_k = round(mid_k / U_k) · U_k` with `U_k`
-//!    the ulp of the largest |coordinate| on that axis and `mid_k` the bounding box's middle;
-//!    on the other axes `c_k = 0`. Every subtraction `x - c` is verified exact (TwoSum's
+//!    arbitrary. Such a model is translated by a vector `c` before anything else: per axis
+//!    `c_k = round(mid_k / U_k) · U_k` with `U_k` the ulp of the largest |coordinate| on that
+//!    axis and `mid_k` the bounding box's middle, on every axis where that is exact (an axis
+//!    whose own unit is under the tolerance and has no exact translation, e.g. one through
+//!    the origin with fine digits, keeps `c_k = 0`; the axes near the tolerance move too, as
+//!    constructions that close to it failed). Every subtraction `x - c` is verified exact (TwoSum's
 //!    error term zero) for the referenced vertices and every vertex within two weld
 //!    distances of their bounding box (the only possible weld targets), so the translated
 //!    model is the input *exactly*, moved: every exact predicate (orientation, insphere,

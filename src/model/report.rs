@@ -54,7 +54,8 @@ pub struct CleaningReport {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Translation {
     /// The vector subtracted from every vertex (and added back on output): per axis a
-    /// multiple of that axis's rounding unit, 0 on axes that needed no translation.
+    /// multiple of that axis's rounding unit; 0 on an axis that needed none and has no exact
+    /// one.
     pub by: [f64; 3],
     /// Largest |coordinate| of the input (referenced vertices).
     pub max_abs: f64,
