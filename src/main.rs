@@ -950,12 +950,16 @@ fn load(path: &std::path::Path) -> Result<portalfind::model::Model> {
 fn load_timed(path: &std::path::Path) -> Result<(portalfind::model::Model, f64)> {
     let (m, secs) = pipeline::load(path)?;
     eprintln!("loaded {} in {secs:.3} s", path.display());
+    if let Some(t) = &m.report.translation {
+        eprintln!("note: {t}");
+    }
     Ok((m, secs))
 }
 
 fn info(path: &std::path::Path) -> Result<()> {
     let m = load(path)?;
     let (lo, hi) = m.bbox();
+    let (lo, hi) = (m.to_user(lo), m.to_user(hi));
     println!("model        {}", m.name);
     println!("vertices     {}", m.vertices.len());
     println!("polygons     {}", m.polygons.len());
@@ -1112,25 +1116,30 @@ fn complex(
         }
     }
     for (i, l) in cx.leaks.iter().enumerate() {
+        let (first, hull) = (m.to_user(l.first_portal_point), m.to_user(l.hull_point));
         println!(
             "leak {i}: region of {} cells; path of {} cells from cell {}; first portal at ({:.3}, {:.3}, {:.3}); leaves the hull at ({:.3}, {:.3}, {:.3})",
             l.region_cells,
             l.path.len(),
             l.from_cell,
-            l.first_portal_point[0],
-            l.first_portal_point[1],
-            l.first_portal_point[2],
-            l.hull_point[0],
-            l.hull_point[1],
-            l.hull_point[2]
+            first[0],
+            first[1],
+            first[2],
+            hull[0],
+            hull[1],
+            hull[2]
         );
     }
     if let Some(hint) = gap_hint(&cx, &m) {
         println!("{hint}");
     }
-    print_sealed(&sealed);
+    print_sealed(&sealed, &m);
     if let Some(pf) = pointfile {
-        write_or_clear_pointfile(pf, cx.leaks.first().map(|l| cx.leak_pointfile(l)))?;
+        let points = cx
+            .leaks
+            .first()
+            .map(|l| cx.leak_pointfile(l).into_iter().map(|p| m.to_user(p)).collect());
+        write_or_clear_pointfile(pf, points)?;
     }
     if cx.stats.active_cells == 0 {
         report_leaks_and_orientation(&cx, &m);
@@ -1519,7 +1528,7 @@ fn run_decimation(
     for d in &written.swept {
         println!("removed an interrupted run's staging directory {}", d.display());
     }
-    print_sealed(&sealed);
+    print_sealed(&sealed, &m);
     report_leaks_and_orientation(&cx, &m);
     if let Some(settings) = evaluate {
         println!();
@@ -1621,14 +1630,15 @@ fn print_evaluation(o: &portalfind::evaluate::Output, dir: &std::path::Path) -> 
 }
 
 /// One line per hole sealed by `--seal-holes`.
-fn print_sealed(sealed: &[portalfind::complex::SealedOpening]) {
+fn print_sealed(sealed: &[portalfind::complex::SealedOpening], m: &portalfind::model::Model) {
     for (i, o) in sealed.iter().enumerate() {
+        let point = m.to_user(o.point);
         println!(
             "sealed opening {i}: width {:.4} at ({:.3}, {:.3}, {:.3}); {} portal{}, area {:.4}, cell {} kept, {} removed",
             o.width,
-            o.point[0],
-            o.point[1],
-            o.point[2],
+            point[0],
+            point[1],
+            point[2],
             o.portals,
             if o.portals == 1 { "" } else { "s" },
             o.area,
@@ -1691,11 +1701,12 @@ fn report_leaks_and_orientation(cx: &portalfind::complex::CellComplex, m: &porta
         );
     }
     for (i, l) in cx.leaks.iter().enumerate() {
+        let hull = m.to_user(l.hull_point);
         eprintln!(
             "warning: leak {i}: the region of {} cells reaches the outside near ({:.3}, {:.3}, {:.3}); \
              its path is in OUT/leak.pts after `run`, or write it with \
              `portalfind complex MODEL --pointfile FILE` (load it in TrenchBroom)",
-            l.region_cells, l.hull_point[0], l.hull_point[1], l.hull_point[2]
+            l.region_cells, hull[0], hull[1], hull[2]
         );
     }
     if let Some(hint) = gap_hint(cx, m) {
@@ -1715,8 +1726,10 @@ fn locate(dir: &std::path::Path, points: &std::path::Path) -> Result<()> {
     let pts = portalfind::output::read_points(points)?;
     let loc = portalfind::output::Locator::new(&doc);
     let mut out = String::new();
+    // The points are in the input's frame, the document in the model's.
+    let to_model = doc.model.origin.map(|o| -o);
     for p in &pts {
-        match loc.locate(p) {
+        match loc.locate(&portalfind::model::translate_point(*p, to_model)) {
             Some(id) => out.push_str(&format!("{id}\n")),
             None => out.push_str("-1\n"),
         }

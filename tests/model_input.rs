@@ -466,6 +466,7 @@ fn e1m1_loads_with_golden_counts() {
         non_manifold_edges: GOLDEN[7],
         final_vertices: GOLDEN[8],
         final_polygons: GOLDEN[9],
+        translation: None,
     };
     assert_eq!(*r, golden);
     assert_eq!(m.triangle_count(), r.final_polygons);

@@ -33,7 +33,7 @@ pub fn load_model(def: &Definition, root: &Path) -> Result<(Model, Option<Ground
             let path = root.join(p);
             let m = crate::model::load_model(&path).map_err(|e| RunError::LoadModel(Box::new(e)))?;
             if def.transforms.is_empty() {
-                let truth = read_truth(def, root)?;
+                let truth = read_truth(def, root)?.map(|t| truth_in_model_frame(t, &m));
                 return Ok((m, truth));
             }
             let polys = m
@@ -41,7 +41,9 @@ pub fn load_model(def: &Definition, root: &Path) -> Result<(Model, Option<Ground
                 .iter()
                 .map(|q| q.verts.iter().map(|v| v.0).collect())
                 .collect();
-            (m.name, m.vertices, polys, None)
+            // The transforms act in the input's frame (exact: the recentring was).
+            let vertices = m.vertices.iter().map(|&v| m.to_user(v)).collect();
+            (m.name, vertices, polys, None)
         }
     };
     if def.truth.is_some() {
@@ -64,7 +66,21 @@ pub fn load_model(def: &Definition, root: &Path) -> Result<(Model, Option<Ground
         name: name.clone(),
         source: Box::new(source),
     })?;
+    let truth = truth.map(|t| truth_in_model_frame(t, &m));
     Ok((m, truth))
+}
+
+/// The ground truth (given in the input's frame) in the model's frame
+/// ([`Model::from_user`]): the evaluation locates its samples in the model's cells. The
+/// identity for models that were not recentred.
+fn truth_in_model_frame(mut t: GroundTruth, m: &Model) -> GroundTruth {
+    for p in t.rooms.iter_mut().flat_map(|r| r.samples.iter_mut()) {
+        *p = m.from_user(*p);
+    }
+    for p in t.doorways.iter_mut().flat_map(|d| d.polygon.iter_mut()) {
+        *p = m.from_user(*p);
+    }
+    t
 }
 
 fn read_truth(def: &Definition, root: &Path) -> Result<Option<GroundTruth>, RunError> {

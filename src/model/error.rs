@@ -163,13 +163,20 @@ pub enum ModelError {
         diag: f64,
     },
 
-    /// The coordinates are too coarse for the model's size: their rounding unit
-    /// (`f64::EPSILON` × largest |coordinate|) exceeds the plane tolerance
-    /// ([`crate::Tolerances::plane_abs`], 1e-9 of the diagonal), so points constructed on a
-    /// plane (where a cell is cut) cannot be represented within the tolerance that decides
-    /// whether a point is on that plane. Typical cause: a small model far from the origin.
+    /// The coordinates are too coarse for the model's size and no exact translation makes
+    /// them fine enough. Their rounding unit (`f64::EPSILON` × largest |coordinate|) exceeds
+    /// the plane tolerance ([`crate::Tolerances::plane_abs`], 1e-9 of the diagonal), so
+    /// points constructed on a plane (where a cell is cut) could not be represented within
+    /// the tolerance that decides whether a point is on that plane. A small model far from
+    /// the origin is normally recentred by an exact translation instead (see
+    /// [`crate::model::Translation`]); this error remains for coordinates that no
+    /// translation by a multiple of their rounding unit moves exactly (`reason` says which).
     #[error(
-        "{file}: coordinates too coarse for the model's size: largest |coordinate| {max_abs:e} has          rounding unit {unit:e}, above the plane tolerance {plane:e} (1e-9 of the diagonal          {diag:e}); translate the model nearer the origin"
+        "{file}: coordinates too coarse for the model's size: largest |coordinate| {max_abs:e} has \
+         rounding unit {unit:e}, above the plane tolerance {plane:e} (1e-9 of the diagonal \
+         {diag:e}), and no exact translation brings it below: {reason}; translating the file \
+         cannot restore digits it does not hold: export the model with coordinates relative to \
+         an origin near it"
     )]
     Precision {
         file: String,
@@ -181,6 +188,8 @@ pub enum ModelError {
         plane: f64,
         /// Bounding-box diagonal of the referenced vertices.
         diag: f64,
+        /// Why the exact translation failed (the vertex and axis it could not move exactly).
+        reason: String,
     },
 }
 

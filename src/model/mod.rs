@@ -57,13 +57,31 @@
 //!    of those vertices at most 1e15, diagonal at least 1e-9), since every later step uses the
 //!    tolerances. Out of range, a model whose every polygon has zero area in the exact input
 //!    coordinates (fewer than 3 distinct points, or collinear; e.g. `f 1 1 1`) is reported as
-//!    [`ModelError::Empty`], as cleaning would: it would be empty at any scale. The
-//!    coordinates must also be fine enough for the model's size ([`ModelError::Precision`]:
-//!    `f64::EPSILON` × largest |coordinate| at most [`Tolerances::plane_abs`], 1e-9 of the
-//!    diagonal; a model of size 10 at offset 1e9 is refused): a point constructed on a plane
-//!    cannot be closer to it than the rounding unit, so coarser coordinates make the on-plane
-//!    decisions of the cell complex arbitrary (cell volumes stop summing to the hull's,
-//!    polygons are left crossing cells).
+//!    [`ModelError::Empty`], as cleaning would: it would be empty at any scale.
+//!
+//!    **Exact recentring.** A point constructed on a plane cannot be closer to it than the
+//!    rounding unit of its coordinates, so when `f64::EPSILON` × largest |coordinate| exceeds
+//!    [`Tolerances::plane_abs`] (1e-9 of the diagonal; e.g. a model of size 15 at offset
+//!    1e9, unit 2.2e-7 against 1.5e-8) the on-plane decisions of the cell complex would be
+//!    arbitrary. Such a model is translated by a vector `c` before anything else: per axis
+//!    `c_k = round(mid_k / U_k) · U_k` with `U_k` the ulp of the largest |coordinate| on that
+//!    axis and `mid_k` the bounding box's middle, on every axis where that is exact (an axis
+//!    whose own unit is under the tolerance and has no exact translation, e.g. one through
+//!    the origin with fine digits, keeps `c_k = 0`; the axes near the tolerance move too, as
+//!    constructions that close to it failed). Every subtraction `x - c` is verified exact (TwoSum's
+//!    error term zero) for the referenced vertices and every vertex within two weld
+//!    distances of their bounding box (the only possible weld targets), so the translated
+//!    model is the input *exactly*, moved: every exact predicate (orientation, insphere,
+//!    collinearity) gives the same answer as on the input coordinates, and every difference
+//!    of two coordinates (welding, tolerances, the diagonal) is the same double. Only the
+//!    points the cell complex constructs gain: they round at the unit of the recentred
+//!    coordinates. The translation is recorded ([`CleaningReport::translation`],
+//!    [`Model::origin`]) and added back on output. (The input's own digits are not restored:
+//!    at offset 1e9 the file's coordinates are spaced 1.2e-7 apart, like noise of ~1e-8 of a
+//!    size-15 model, which the complex handles.) An exact translation always exists when an
+//!    axis needs one (its coordinates then all lie within 2.2e-7 of each other relative to
+//!    their magnitude, in at most two binades, so `x - c` is a small multiple of half their
+//!    ulp), so [`ModelError::Precision`] is the guard should the check ever fail.
 //! 2. **Welding.** Vertices are visited in file order; a vertex closer than
 //!    [`Tolerances::weld_abs`] to an earlier surviving vertex is merged into the nearest such
 //!    vertex (grid hash with cell size = weld distance, expected O(n)). Chains are not
@@ -115,7 +133,7 @@ use crate::ids::{PolygonId, VertexId};
 use crate::tolerances::Tolerances;
 
 pub use error::ModelError;
-pub use report::CleaningReport;
+pub use report::{CleaningReport, Translation};
 
 /// Where a polygon came from in the input.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -151,9 +169,27 @@ pub struct Model {
     pub report: CleaningReport,
     /// Tolerances derived from the model's size.
     pub tolerances: Tolerances,
+    /// The input's frame: a vertex `v` of [`Model::vertices`] is the input point
+    /// `v + origin`. `[0, 0, 0]` for every model but one recentred exactly on loading
+    /// ([`CleaningReport::translation`]); outputs carry coordinates in the input's frame
+    /// ([`Model::to_user`]), and points read from the user go through [`Model::from_user`].
+    pub origin: [f64; 3],
 }
 
 impl Model {
+    /// A point of the model's (possibly recentred) frame in the input's frame: `p + origin`
+    /// (rounded to the input's precision there; exact for the vertices). The identity,
+    /// bit for bit (signed zeros too), on axes with no translation.
+    pub fn to_user(&self, p: [f64; 3]) -> [f64; 3] {
+        translate_point(p, self.origin)
+    }
+
+    /// A point of the input's frame in the model's frame: `p - origin` (the identity on
+    /// axes with no translation).
+    pub fn from_user(&self, p: [f64; 3]) -> [f64; 3] {
+        translate_point(p, self.origin.map(|o| -o))
+    }
+
     /// Axis-aligned bounding box `(min, max)` of the vertices (all zeros for no vertices).
     pub fn bbox(&self) -> ([f64; 3], [f64; 3]) {
         bbox_of(self.vertices.iter())
@@ -250,6 +286,12 @@ pub fn from_soup(name: &str, vertices: Vec<[f64; 3]>, polygons: Vec<Vec<u32>>) -
         })
         .collect();
     clean::clean(name, name, clean::Soup { vertices, polygons })
+}
+
+/// `p + t`, leaving the axes where `t` is zero untouched (so `-0.0` stays `-0.0` and a
+/// model without translation writes the same bytes as before).
+pub fn translate_point(p: [f64; 3], t: [f64; 3]) -> [f64; 3] {
+    std::array::from_fn(|k| if t[k] == 0.0 { p[k] } else { p[k] + t[k] })
 }
 
 /// Bounding box of points; all zeros when there are none.

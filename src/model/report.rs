@@ -42,7 +42,36 @@ pub struct CleaningReport {
     pub final_vertices: usize,
     /// Polygons in the cleaned model.
     pub final_polygons: usize,
+    /// The exact translation applied to a model far from the origin (`None`, and absent
+    /// from `result.json`, for every model that does not need one).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub translation: Option<Translation>,
 }
+
+/// An exact recentring (step 1 of cleaning, see the module documentation of
+/// [`crate::model`]): the model's vertices were translated by `-by` before cleaning, every
+/// subtraction exact, and every output adds `by` back ([`crate::model::Model::origin`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Translation {
+    /// The vector subtracted from every vertex (and added back on output): per axis a
+    /// multiple of that axis's rounding unit; 0 on an axis that needed none and has no exact
+    /// one.
+    pub by: [f64; 3],
+    /// Largest |coordinate| of the input (referenced vertices).
+    pub max_abs: f64,
+    /// Its rounding unit `f64::EPSILON * max_abs`: how far a point constructed on a plane
+    /// would be rounded in the input's frame.
+    pub unit: f64,
+    /// The plane tolerance it exceeded.
+    pub plane: f64,
+    /// Per axis, the spacing of the input's coordinates there (the ulp of the largest
+    /// |coordinate| on that axis; 0 on untranslated axes): the input's own quantisation,
+    /// which the translation keeps exactly.
+    pub quantum: [f64; 3],
+}
+
+// Coordinates are finite (the loader refuses NaN), so equality is an equivalence.
+impl Eq for Translation {}
 
 impl fmt::Display for CleaningReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -81,6 +110,23 @@ impl fmt::Display for CleaningReport {
             f,
             "output:  {} vertices, {} polygons",
             self.final_vertices, self.final_polygons
+        )?;
+        if let Some(t) = &self.translation {
+            write!(f, "\n{t}")?;
+        }
+        Ok(())
+    }
+}
+
+impl fmt::Display for Translation {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let q = self.quantum.iter().copied().fold(0.0f64, f64::max);
+        write!(
+            f,
+            "translated by [{:?}, {:?}, {:?}] exactly (coordinates ~{:.0e} would round constructed points by \
+             {:.1e}, above the plane tolerance {:.1e}); the input's coordinates are spaced {:.1e} apart \
+             there, and outputs are in the input's frame",
+            self.by[0], self.by[1], self.by[2], self.max_abs, self.unit, self.plane, q
         )
     }
 }

@@ -85,8 +85,10 @@ pub(super) const PORTAL_COLOUR: [f64; 4] = [1.0, 0.82, 0.1, 0.5];
 /// The portal hulls' colour (RGB) and opacity.
 pub(super) const PORTAL_HULL_COLOUR: [f64; 4] = [1.0, 0.45, 0.05, 0.3];
 
-/// Appends one object's faces, sharing its vertices; `next` is the next OBJ vertex index.
-fn object(out: &mut String, next: &mut usize, name: &str, material: &str, faces: &[&[P3]]) {
+/// Appends one object's faces, sharing its vertices (by their bits in the model's frame);
+/// `next` is the next OBJ vertex index. Vertices are written in the input's frame:
+/// `origin` ([`crate::model::Model::origin`]) added.
+fn object(out: &mut String, next: &mut usize, name: &str, material: &str, faces: &[&[P3]], origin: P3) {
     let _ = writeln!(out, "o {name}\nusemtl {material}");
     let mut index: HashMap<[u64; 3], usize> = HashMap::new();
     let mut face_lines = String::new();
@@ -95,6 +97,7 @@ fn object(out: &mut String, next: &mut usize, name: &str, material: &str, faces:
         for v in *f {
             let key = v.map(f64::to_bits);
             let i = *index.entry(key).or_insert_with(|| {
+                let v = crate::model::translate_point(*v, origin);
                 let _ = writeln!(out, "v {} {} {}", v[0], v[1], v[2]);
                 *next += 1;
                 *next - 1
@@ -106,8 +109,9 @@ fn object(out: &mut String, next: &mut usize, name: &str, material: &str, faces:
     out.push_str(&face_lines);
 }
 
-/// The text of `cells.obj` and `cells.mtl`.
-pub fn cells_obj_text(cx: &CellComplex, partition: &Partition, header: &str) -> (String, String) {
+/// The text of `cells.obj` and `cells.mtl`, coordinates in the input's frame (`origin`
+/// added to the complex's).
+pub fn cells_obj_text(cx: &CellComplex, partition: &Partition, header: &str, origin: P3) -> (String, String) {
     let mut obj = String::new();
     for l in header.lines() {
         let _ = writeln!(obj, "# {l}");
@@ -121,14 +125,14 @@ pub fn cells_obj_text(cx: &CellComplex, partition: &Partition, header: &str) -> 
             .map(|f| &f.verts[..])
             .collect();
         let name = format!("cell_{}", c.id.0);
-        object(&mut obj, &mut next, &format!("Cell_{}", c.id.0), &name, &faces);
+        object(&mut obj, &mut next, &format!("Cell_{}", c.id.0), &name, &faces, origin);
         let [r, g, b] = cell_colour(i);
         let _ = writeln!(mtl, "\nnewmtl {name}\nKd {r:.4} {g:.4} {b:.4}\nKa 0 0 0\nd 1");
     }
     for p in partition.portals(cx) {
         let faces: Vec<&[P3]> = p.pieces.iter().map(|q| &q.verts[..]).collect();
         let name = format!("Portal_{}_{}", p.cells[0].0, p.cells[1].0);
-        object(&mut obj, &mut next, &name, "portal", &faces);
+        object(&mut obj, &mut next, &name, "portal", &faces, origin);
         let pieces: Vec<Vec<P3>> = p.pieces.iter().map(|q| q.verts.to_vec()).collect();
         if let Some(h) = convex_portal(&pieces) {
             object(
@@ -137,6 +141,7 @@ pub fn cells_obj_text(cx: &CellComplex, partition: &Partition, header: &str) -> 
                 &format!("{name}_hull"),
                 "portal_hull",
                 &[&h.verts[..]],
+                origin,
             );
         }
     }
@@ -178,7 +183,7 @@ impl Exporter for CellsObj {
             ctx.doc.cells.len(),
             ctx.doc.portals.len()
         );
-        let (obj, mtl) = cells_obj_text(cx, &ctx.dec.partition, &header);
+        let (obj, mtl) = cells_obj_text(cx, &ctx.dec.partition, &header, ctx.model.origin);
         let (po, pm) = (ctx.dir.join(OBJ), ctx.dir.join(MTL));
         write_atomic(&pm, |tmp| std::fs::write(tmp, &mtl))?;
         if let Err(e) = write_atomic(&po, |tmp| std::fs::write(tmp, &obj)) {

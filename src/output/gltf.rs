@@ -263,6 +263,11 @@ pub fn cells_glb(ctx: &ExportContext<'_>) -> Result<Vec<u8>, OutputError> {
         }
     }
     let h = std::f64::consts::FRAC_1_SQRT_2;
+    // A recentred model (`Model::origin`) keeps its f32 positions near zero, where they
+    // are precise; the roots' translation puts it back in the input's frame: the model's
+    // `o` turned by the roots' rotation (x, y, z) -> (x, z, -y).
+    let o = ctx.model.origin;
+    let translation = (o != [0.0; 3]).then(|| json!([o[0], o[2], -o[1]]));
     nodes[0] = json!({
         "name": "RoomList",
         "rotation": [-h, 0.0, 0.0, h],
@@ -281,6 +286,11 @@ pub fn cells_glb(ctx: &ExportContext<'_>) -> Result<Vec<u8>, OutputError> {
     {
         o.remove("children");
     }
+    if let Some(t) = &translation
+        && let Some(o) = nodes[0].as_object_mut()
+    {
+        o.insert("translation".into(), t.clone());
+    }
     let mut roots = vec![0];
     if !merged_children.is_empty() {
         nodes.push(json!({
@@ -289,6 +299,11 @@ pub fn cells_glb(ctx: &ExportContext<'_>) -> Result<Vec<u8>, OutputError> {
             "children": merged_children,
             "extras": { "what": "per merged portal: Portal_<a>_<b>_surface (its pieces) and Portal_<a>_<b>_hull (a convex stand-in)" },
         }));
+        if let Some(t) = &translation
+            && let Some(n) = nodes.last_mut().and_then(|n| n.as_object_mut())
+        {
+            n.insert("translation".into(), t.clone());
+        }
         roots.push(nodes.len() - 1);
     }
     let mut doc = json!({

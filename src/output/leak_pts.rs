@@ -36,7 +36,8 @@ impl Exporter for LeakPts {
         };
         let text: String = cx
             .leak_pointfile(leak)
-            .iter()
+            .into_iter()
+            .map(|p| ctx.model.to_user(p))
             .map(|p| format!("{} {} {}\n", p[0], p[1], p[2]))
             .collect();
         let path = ctx.dir.join(LEAK_FILE);

@@ -17,6 +17,11 @@ pub struct Locator<'a> {
 impl<'a> Locator<'a> {
     /// Prepares the pieces' bounding boxes. A point counts as inside a piece when it is
     /// within the plane tolerance (`tolerances.plane_abs()`) of the inside of every plane.
+    /// The document and the points are in the model's frame (`read_result` gives it so;
+    /// `portalfind locate` subtracts `doc.model.origin` from the user's points). For a
+    /// recentred model the slack also covers the rounding of `result.json`'s coordinates
+    /// in the input's frame (a few units in the last place of the largest coordinate
+    /// there), which the round trip through the file adds.
     pub fn new(doc: &'a ResultDoc) -> Self {
         let mut boxes = Vec::new();
         for (ci, c) in doc.cells.iter().enumerate() {
@@ -32,11 +37,13 @@ impl<'a> Locator<'a> {
                 boxes.push((ci, pi, lo, hi));
             }
         }
-        Locator {
-            doc,
-            boxes,
-            slack: doc.model.tolerances.plane_abs(),
+        let o = doc.model.origin;
+        let mut slack = doc.model.tolerances.plane_abs();
+        if o != [0.0; 3] {
+            let far = o.iter().fold(0.0f64, |a, x| a.max(x.abs())) + doc.model.tolerances.scale;
+            slack += 8.0 * f64::EPSILON * far;
         }
+        Locator { doc, boxes, slack }
     }
 
     /// The id of the final cell containing `p` (the lowest id if it lies on a shared

@@ -112,6 +112,16 @@ pub struct ModelInfo {
     pub tolerances: Tolerances,
     /// The cleaning report (`CleaningReport`, serialized as is).
     pub report: serde_json::Value,
+    /// The model's recentring ([`Model::origin`]): every coordinate of the file is in the
+    /// input's frame, and the document in memory is in the model's frame, `origin` less
+    /// ([`ResultDoc::translated`]; [`result_doc`] builds it so, the writer adds `origin`,
+    /// [`read_result`] subtracts it). Absent (zero) for models that needed none.
+    #[serde(default, skip_serializing_if = "is_zero_point")]
+    pub origin: P3,
+}
+
+fn is_zero_point(p: &P3) -> bool {
+    *p == [0.0; 3]
 }
 
 /// Settings of the run.
@@ -182,6 +192,49 @@ pub struct PortalDoc {
     pub polygons: Vec<Vec<P3>>,
 }
 
+impl ResultDoc {
+    /// The document with every coordinate moved by `t` (bounding box, piece vertices and
+    /// planes, portal polygons, sealed openings' points; volumes, areas and normals do not
+    /// move). Axes where `t` is zero keep their bits ([`crate::model::translate_point`]).
+    pub fn translated(&self, t: P3) -> ResultDoc {
+        use crate::model::translate_point as tr;
+        let mut d = self.clone();
+        if t == [0.0; 3] {
+            return d;
+        }
+        d.model.bbox = d.model.bbox.map(|p| tr(p, t));
+        for c in &mut d.cells {
+            for p in &mut c.pieces {
+                for v in &mut p.vertices {
+                    *v = tr(*v, t);
+                }
+                for q in &mut p.planes {
+                    q[3] += q[0] * t[0] + q[1] * t[1] + q[2] * t[2];
+                }
+            }
+        }
+        for p in &mut d.portals {
+            for v in p.polygons.iter_mut().flatten() {
+                *v = tr(*v, t);
+            }
+        }
+        for o in &mut d.sealed_openings {
+            o.point = tr(o.point, t);
+        }
+        d
+    }
+
+    /// The document in the input's frame, as `result.json` holds it (a copy only when the
+    /// model was recentred).
+    pub fn in_user_frame(&self) -> std::borrow::Cow<'_, ResultDoc> {
+        if self.model.origin == [0.0; 3] {
+            std::borrow::Cow::Borrowed(self)
+        } else {
+            std::borrow::Cow::Owned(self.translated(self.model.origin))
+        }
+    }
+}
+
 /// Builds the document for a finished run.
 pub fn result_doc(
     model: &Model,
@@ -250,6 +303,7 @@ pub fn result_doc(
                 what: "the cleaning report",
                 source,
             })?,
+            origin: model.origin,
         },
         settings: SettingsDoc {
             heuristic: dec.settings.heuristic,
@@ -424,10 +478,14 @@ pub fn read_result(dir: &Path) -> Result<ResultDoc, OutputError> {
         source,
     })?;
     verify_file(dir, RESULT_FILE, text.as_bytes())?;
-    let doc: ResultDoc = serde_json::from_str(&text).map_err(|source| OutputError::Parse {
+    let mut doc: ResultDoc = serde_json::from_str(&text).map_err(|source| OutputError::Parse {
         path: p.clone(),
         source,
     })?;
+    // The file is in the input's frame; the document in memory in the model's.
+    if doc.model.origin != [0.0; 3] {
+        doc = doc.translated(doc.model.origin.map(|o| -o));
+    }
     if doc.schema != SCHEMA || doc.schema_version != SCHEMA_VERSION {
         return Err(OutputError::Schema {
             path: p,

@@ -305,10 +305,14 @@ impl Exporter for Prt {
 
     fn write(&self, ctx: &ExportContext<'_>) -> Result<Vec<PathBuf>, OutputError> {
         let cx = ctx.complex(FILE)?;
-        let prt = prt_file(cx, &ctx.dec.partition, PrtLimits::VIS).map_err(|e| OutputError::Write {
+        let mut prt = prt_file(cx, &ctx.dec.partition, PrtLimits::VIS).map_err(|e| OutputError::Write {
             file: FILE.into(),
             source: e.into(),
         })?;
+        // Windings in the input's frame.
+        for v in prt.portals.iter_mut().flat_map(|p| p.winding.iter_mut()) {
+            *v = ctx.model.to_user(*v);
+        }
         let path = ctx.dir.join(FILE);
         write_atomic(&path, |tmp| std::fs::write(tmp, prt.to_text()))?;
         Ok(vec![path])

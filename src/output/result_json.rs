@@ -43,12 +43,14 @@ impl Exporter for ResultJson {
         let path = ctx.dir.join(RESULT_FILE);
         write_atomic(&path, |tmp| -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
             let f = std::io::BufWriter::new(std::fs::File::create(tmp)?);
+            // Coordinates in the input's frame (the model's recentring added back).
+            let doc = ctx.doc.in_user_frame();
             if ctx.strip_timings {
-                let mut v = serde_json::to_value(ctx.doc)?;
+                let mut v = serde_json::to_value(&*doc)?;
                 strip_timings_json(&mut v);
                 serde_json::to_writer(f, &v)?;
             } else {
-                serde_json::to_writer(f, ctx.doc)?;
+                serde_json::to_writer(f, &*doc)?;
             }
             Ok(())
         })?;

@@ -356,8 +356,9 @@ pub fn cells_svg_with(model: &Model, doc: &ResultDoc, notes: &Notes<'_>) -> Stri
             } else {
                 format!("{} cells", st.cells.len())
             },
-            fmt_height(st.floor),
-            fmt_height(st.next)
+            // Heights in the input's frame.
+            fmt_height(model.to_user([0.0, 0.0, st.floor])[2]),
+            fmt_height(model.to_user([0.0, 0.0, st.next])[2])
         );
         draw_view(
             &mut out,

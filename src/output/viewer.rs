@@ -280,7 +280,8 @@ pub fn viewer_json(
         "generator": format!("portalfind {}", env!("CARGO_PKG_VERSION")),
         "model": model.name,
         "settings": settings,
-        "centre": centre,
+        // In the input's frame; the vertices are relative to it (f32 near zero).
+        "centre": model.to_user(centre),
         "size": size,
         "stop": stop,
         "cells": {

@@ -351,6 +351,12 @@ pub fn run_case(c: &SuiteCase, variants: &[Variant], progress: &mut dyn FnMut(&s
                 continue;
             }
         };
+        // The samples in the model's frame (a model far from the origin is recentred on
+        // loading; the identity otherwise).
+        let samples: Vec<Vec<P3>> = samples
+            .iter()
+            .map(|s| s.iter().map(|&p| m.from_user(p)).collect())
+            .collect();
         row.closed = is_closed(&m);
         let gap = widest_gap(&m);
         row.widest_gap = gap / m.tolerances.scale;

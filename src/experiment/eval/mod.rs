@@ -210,7 +210,16 @@ pub fn evaluate(
     t0: Instant,
 ) -> Evaluation {
     let diag = diagonal(&p.doc.model.bbox);
-    let truth_eval = truth.map(|t| truth_eval(p, t, diag, full));
+    let mut truth_eval = truth.map(|t| truth_eval(p, t, diag, full));
+    // Evaluated in the model's frame (the truth was moved into it on loading); the
+    // separating portals' centroids go out in the input's.
+    for sp in truth_eval
+        .iter_mut()
+        .filter_map(|t| t.separation.as_mut())
+        .flat_map(|s| s.portals.iter_mut())
+    {
+        sp.centroid = model.to_user(sp.centroid);
+    }
     let s = &p.cx.stats;
     let doc = &p.doc;
     let (next_weight, stop_reason) = match p.dec.stop {

@@ -8,14 +8,15 @@ use crate::experiment::transform::{Transform, invert_all, length_factor};
 use crate::geom::ConvexPolygon;
 use crate::output::ResultDoc;
 
-/// The final portals of a result document.
+/// The final portals of a result document, centroids in the input's frame (the
+/// document's `origin` added), where runs of different models are compared.
 pub fn portal_summaries(doc: &ResultDoc) -> Vec<PortalSummary> {
     doc.portals
         .iter()
         .map(|p| {
             let polys: Vec<ConvexPolygon> = p.polygons.iter().map(|v| ConvexPolygon::new(v.clone())).collect();
             PortalSummary {
-                centroid: weighted_centroid(&polys),
+                centroid: crate::model::translate_point(weighted_centroid(&polys), doc.model.origin),
                 area: p.area,
             }
         })
