@@ -87,12 +87,12 @@
 //! its saddles instead of projected areas.
 
 use std::cmp::Ordering;
-use std::collections::BinaryHeap;
 use std::time::Instant;
 
 use rayon::prelude::*;
 
 use super::MEAN_NORMAL_REL;
+use super::heap4::Heap4;
 use super::heuristic::{PairContext, sanitize};
 use super::hull3::Hull3;
 use super::project::{Frame, P2, hull2, hull2_into, polygon_area};
@@ -549,6 +549,46 @@ impl Ord for Entry {
             .then(self.saddle.total_cmp(&o.saddle))
             .then(o.a.cmp(&self.a))
             .then(o.b.cmp(&self.b))
+    }
+}
+
+/// An [`Entry`] as the heap stores it: three integers whose lexicographic order is
+/// `Entry`'s (`Key::of` is one to one and order-preserving, `entry` its inverse;
+/// `heap_keys_order_and_decode_as_entries`), so a comparison is three integer compares
+/// instead of a chain of `total_cmp`s.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+struct Key(u64, u64, u64);
+
+/// `f64::total_cmp`'s order as an unsigned integer's (and back: the map is an involution
+/// up to the sign bit's flip).
+fn total_bits(x: f64) -> u64 {
+    let b = x.to_bits() as i64;
+    ((b ^ ((((b >> 63) as u64) >> 1) as i64)) as u64) ^ (1 << 63)
+}
+
+fn from_total_bits(u: u64) -> f64 {
+    let t = (u ^ (1 << 63)) as i64;
+    f64::from_bits((t ^ ((((t >> 63) as u64) >> 1) as i64)) as u64)
+}
+
+impl Key {
+    /// Greater pops first: the lower weight, then the higher saddle, then the lower ids.
+    fn of(e: Entry) -> Key {
+        Key(
+            !total_bits(e.weight),
+            total_bits(e.saddle),
+            !(((e.a as u64) << 32) | e.b as u64),
+        )
+    }
+
+    fn entry(self) -> Entry {
+        let ids = !self.2;
+        Entry {
+            weight: from_total_bits(!self.0),
+            saddle: from_total_bits(self.1),
+            a: (ids >> 32) as u32,
+            b: ids as u32,
+        }
     }
 }
 
@@ -1217,10 +1257,26 @@ fn run_inner(
         k.pieces = 1;
         k.label = labels.map_or(0, |(l, _)| l[id.idx()]);
         if sections {
-            k.members.push(id.0);
+            k.members = vec![id.0];
         }
         cells += 1;
     }
+    // Each component's links sized at once (its portals bound its neighbours), instead of
+    // grown by insertions: the same links, without the reallocations.
+    let mut degree = vec![0u32; n];
+    for p in &cx.portals {
+        let [a, b] = p.cells;
+        if comps[a.idx()].alive && comps[b.idx()].alive && a != b {
+            degree[a.idx()] += 1;
+            degree[b.idx()] += 1;
+        }
+    }
+    for (k, &d) in comps.iter_mut().zip(&degree) {
+        if d > 0 {
+            k.links.0.reserve_exact(d as usize);
+        }
+    }
+    drop(degree);
     for (k, p) in cx.portals.iter().enumerate() {
         let [a, b] = p.cells;
         if !(comps[a.idx()].alive && comps[b.idx()].alive) || a == b {
@@ -1283,23 +1339,35 @@ fn run_inner(
     // cleared at the pop). The counters count weighings, which still happen. With a trace
     // every push happens (the trace records each copy's visit).
     let dedup = trace.is_none();
-    let requeue = |comps: &mut [Comp], heap: &mut BinaryHeap<Entry>, a: u32, b: u32, w: f64, saddle: f64| {
+    // Marks pair `a < b` queued with key (`w`, `saddle`) and gives the entry to push, or
+    // `None` when the same key is still queued (see above).
+    let mark = |comps: &mut [Comp], a: u32, b: u32, w: f64, saddle: f64| -> Option<Entry> {
         let la = comps[a as usize].links.get_mut(b).expect("a linked neighbour");
         if dedup && la.queued.to_bits() == w.to_bits() {
-            return;
+            return None;
         }
         la.queued = w;
         comps[b as usize].links.get_mut(a).expect("a linked neighbour").queued = w;
-        heap.push(Entry {
+        Some(Entry {
             weight: w,
             saddle,
             a,
             b,
-        });
+        })
+    };
+    let requeue = |comps: &mut [Comp], heap: &mut Heap4<Key>, a: u32, b: u32, w: f64, saddle: f64| {
+        if let Some(e) = mark(comps, a, b, w, saddle) {
+            heap.push(Key::of(e));
+        }
     };
     // Every live pair: at the start, and again after a constrained stretch (whose pairs
-    // across groups were dropped from the heap). Only live components have links.
-    let push_all = |comps: &mut [Comp], heap: &mut BinaryHeap<Entry>, stats: &mut DecimationStats| {
+    // across groups were dropped from the heap). Only live components have links. The
+    // entries are appended and the heap order restored once (a bottom-up construction when
+    // the heap was empty): the heap's layout differs from pushing one by one, its pops do
+    // not ([`Heap4`]: a pop returns the greatest entry, and equal entries are the same
+    // bits).
+    let push_all = |comps: &mut [Comp], heap: &mut Heap4<Key>, stats: &mut DecimationStats| {
+        let from = heap.len();
         for a in 0..comps.len() {
             if !comps[a].alive {
                 continue;
@@ -1309,12 +1377,15 @@ fn run_inner(
                 if (a as u32) < b {
                     stats.weights_computed += 1;
                     let w = weigh(&comps[a], &comps[b as usize], &l);
-                    requeue(comps, heap, a as u32, b, w, l.saddle);
+                    if let Some(e) = mark(comps, a as u32, b, w, l.saddle) {
+                        heap.push_unordered(Key::of(e));
+                    }
                 }
             }
         }
+        heap.restore(from);
     };
-    let mut heap = BinaryHeap::with_capacity(stats.initial_pairs * 2);
+    let mut heap = Heap4::with_capacity(stats.initial_pairs * 2);
     push_all(&mut comps, &mut heap, &mut stats);
     stats.init_seconds = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
@@ -1344,7 +1415,7 @@ fn run_inner(
         {
             break StopReason::Cells { target };
         }
-        let Some(e) = heap.pop() else {
+        let Some(e) = heap.pop().map(Key::entry) else {
             if !constrained {
                 break StopReason::Exhausted;
             }
@@ -1783,7 +1854,7 @@ fn regions(comps: &[Comp]) -> usize {
 /// saddle, so skipping a push of that key never loses the pair.
 #[cfg(test)]
 mod queue_audit {
-    use super::{BinaryHeap, Comp, Entry};
+    use super::{Comp, Heap4, Key};
     use std::cell::Cell;
 
     thread_local! {
@@ -1793,12 +1864,13 @@ mod queue_audit {
 
     /// Every 64th pop (a whole-heap check at every pop made the test take minutes): a
     /// wrong mark stays until its pair is weighed anew, so it is still seen.
-    pub fn check(comps: &[Comp], heap: &BinaryHeap<Entry>) {
+    pub fn check(comps: &[Comp], heap: &Heap4<Key>) {
         if !ON.with(Cell::get) || !POPS.with(|p| p.replace(p.get() + 1)).is_multiple_of(64) {
             return;
         }
         let queued: std::collections::HashSet<(u32, u32, u64, u64)> = heap
             .iter()
+            .map(|k| k.entry())
             .map(|e| (e.a, e.b, e.weight.to_bits(), e.saddle.to_bits()))
             .collect();
         for (a, c) in comps.iter().enumerate() {
@@ -2112,6 +2184,52 @@ mod tests {
 
     /// The merge skips a push whose identical entry is still queued (`requeue`); with a
     /// trace it pushes every time. Both must make the same decisions.
+    /// `Key` orders as `Entry` and decodes to the same bits (weights and saddles with
+    /// signs, zeros, infinities, NaNs, ties).
+    #[test]
+    fn heap_keys_order_and_decode_as_entries() {
+        let mut rng = crate::base::rng::SplitMix64(9);
+        let pool = [
+            0.0,
+            -0.0,
+            1.0,
+            1.0 + f64::EPSILON,
+            0.5,
+            2.0,
+            -1.0,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+            f64::MIN_POSITIVE,
+            1e300,
+        ];
+        let pick = |rng: &mut crate::base::rng::SplitMix64| {
+            if rng.unit() < 0.5 {
+                pool[(rng.unit() * pool.len() as f64) as usize % pool.len()]
+            } else {
+                (rng.unit() - 0.3) * 4.0
+            }
+        };
+        let es: Vec<Entry> = (0..400)
+            .map(|_| Entry {
+                weight: pick(&mut rng),
+                saddle: pick(&mut rng),
+                a: (rng.unit() * 4.0) as u32 * 0x4000_0001,
+                b: (rng.unit() * 4.0) as u32 * 0x3fff_ffff,
+            })
+            .collect();
+        for x in &es {
+            let d = Key::of(*x).entry();
+            assert_eq!(
+                (d.weight.to_bits(), d.saddle.to_bits(), d.a, d.b),
+                (x.weight.to_bits(), x.saddle.to_bits(), x.a, x.b)
+            );
+            for y in &es {
+                assert_eq!(Key::of(*x).cmp(&Key::of(*y)), x.cmp(y), "{x:?} vs {y:?}");
+            }
+        }
+    }
+
     #[test]
     fn skipping_duplicate_pushes_changes_no_step() {
         use crate::decimate::HeuristicKind;

@@ -1,8 +1,9 @@
 //! Clearance: the distance from a point to the nearest of a set of polygons, answered by a
 //! bounding-volume hierarchy over the polygons' fan triangles.
 //!
-//! The tree is built by median splits on the longest axis of the triangles' centroid box,
-//! leaves of at most `LEAF` (4) triangles. A query is a best-first descent that skips only
+//! The tree is built by the binned surface area heuristic down to `SAH_DEPTH` levels and
+//! by median splits on the longest axis of the triangles' centroid box below, leaves of at
+//! most `LEAF` (4) triangles. A query is a best-first descent that skips only
 //! nodes whose box is at least as far as the nearest triangle found so far, so its answer
 //! is the minimum of the point–triangle distances (Ericson 2005, 5.1.5) over *all*
 //! triangles, whatever the tree's shape: the same inputs give the same bits.
@@ -128,7 +129,7 @@ impl ClearanceField {
         let mut nodes = Vec::with_capacity(2 * tris.len() / LEAF + 1);
         if !tris.is_empty() {
             let n = tris.len();
-            build(&mut tris, 0, n, &mut nodes);
+            build(&mut tris, 0, n, 0, &mut nodes);
         }
         ClearanceField { tris, nodes }
     }
@@ -176,60 +177,168 @@ impl ClearanceField {
                 best = d;
             }
         }
-        // Depth-first with the nearer child popped first: at most one pending sibling per
-        // level, and median splits keep the depth below 32 for any `u32` triangle count.
+        // Depth-first, the nearer child first: at most one pending sibling per level, and
+        // the tree is below `SAH_DEPTH + 32` levels (median splits past `SAH_DEPTH`).
+        // The nearer child is visited at once rather than pushed and popped, and a farther
+        // child already at least as far as the best so far is not pushed (the pop would
+        // skip it: the best only decreases): the nodes visited, and their order, are those
+        // of pushing both children and testing each at its pop.
         let mut stack = [(0.0f64, 0u32); 64];
-        let mut len = 1usize;
-        while len > 0 {
-            len -= 1;
-            let (d, ni) = stack[len];
-            if d >= best.min(bound2) {
-                continue;
-            }
-            let n = self.nodes[ni as usize];
-            if n.count > 0 {
-                for (i, t) in self.tris[n.first as usize..(n.first + n.count) as usize]
-                    .iter()
-                    .enumerate()
-                {
-                    let d = tri_dist2(p, t);
-                    if d < best {
-                        best = d;
-                        arg = n.first + i as u32;
+        let mut len = 0usize;
+        let mut ni = 0u32;
+        // The root is at distance 0 (as if popped with 0).
+        let mut visit = 0.0 < best.min(bound2);
+        loop {
+            if visit {
+                let n = self.nodes[ni as usize];
+                if n.count > 0 {
+                    for (i, t) in self.tris[n.first as usize..(n.first + n.count) as usize]
+                        .iter()
+                        .enumerate()
+                    {
+                        let d = tri_dist2(p, t);
+                        if d < best {
+                            best = d;
+                            arg = n.first + i as u32;
+                        }
+                    }
+                } else {
+                    let (l, r) = (ni + 1, n.first);
+                    let dl = box_dist2(p, self.nodes[l as usize].lo, self.nodes[l as usize].hi);
+                    let dr = box_dist2(p, self.nodes[r as usize].lo, self.nodes[r as usize].hi);
+                    // The left child first when strictly nearer, else the right.
+                    let ((dn, near), (df, far)) = if dl < dr {
+                        ((dl, l), (dr, r))
+                    } else {
+                        ((dr, r), (dl, l))
+                    };
+                    let lim = best.min(bound2);
+                    if !(df >= lim) {
+                        stack[len] = (df, far);
+                        len += 1;
+                    }
+                    if !(dn >= lim) {
+                        ni = near;
+                        continue;
                     }
                 }
-                continue;
             }
-            let (l, r) = (ni + 1, n.first);
-            let dl = box_dist2(p, self.nodes[l as usize].lo, self.nodes[l as usize].hi);
-            let dr = box_dist2(p, self.nodes[r as usize].lo, self.nodes[r as usize].hi);
-            // Nearer child last, so it is popped first.
-            if dl < dr {
-                stack[len] = (dr, r);
-                stack[len + 1] = (dl, l);
-            } else {
-                stack[len] = (dl, l);
-                stack[len + 1] = (dr, r);
+            // The next pending node still nearer than the best so far.
+            if len == 0 {
+                break;
             }
-            len += 2;
+            len -= 1;
+            let (d, next) = stack[len];
+            visit = !(d >= best.min(bound2));
+            ni = next;
         }
         HINT.with(|h| h.set(arg));
         (best < bound2).then(|| best.sqrt())
     }
 }
 
-fn build(tris: &mut [[P3; 3]], first: usize, end: usize, nodes: &mut Vec<Node>) -> u32 {
+/// Depth up to which nodes are split by the surface area heuristic; deeper ones by the
+/// median (which halves a range, so the tree stays below `SAH_DEPTH + 32` levels and the
+/// search's fixed stack of 64 suffices).
+const SAH_DEPTH: usize = 24;
+
+/// Bins per axis of the binned surface area heuristic.
+const BINS: usize = 16;
+
+/// Half the surface area of the box `[lo, hi]` (empty: 0).
+fn half_area(lo: P3, hi: P3) -> f64 {
+    let d = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
+    if d[0] < 0.0 || d[1] < 0.0 || d[2] < 0.0 {
+        return 0.0;
+    }
+    d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
+}
+
+fn grow(lo: &mut P3, hi: &mut P3, t: &[P3; 3]) {
+    for v in t {
+        for k in 0..3 {
+            lo[k] = lo[k].min(v[k]);
+            hi[k] = hi[k].max(v[k]);
+        }
+    }
+}
+
+/// The split of `tris` by the binned surface area heuristic (Wald 2007): the axis and bin
+/// boundary of least `area(left) * n_left + area(right) * n_right` over `BINS` bins of the
+/// centroids along each axis, with the triangles partitioned in place (left first): the
+/// left part's length, or `None` when no boundary separates the centroids (then the
+/// caller splits at the median). Architecture's flat clusters (a floor, a wall) get flat
+/// boxes of their own, which a query beside them skips, where median splits on the longest
+/// axis cut across a room and keep boxes that contain the query point for several levels.
+fn sah_split(tris: &mut [[P3; 3]], clo: P3, chi: P3) -> Option<usize> {
+    let bin_of = |c: f64, k: usize| -> usize {
+        let e = chi[k] - clo[k];
+        let b = ((c - clo[k]) / e * BINS as f64) as usize;
+        b.min(BINS - 1)
+    };
+    let mut best: Option<(f64, usize, usize)> = None;
+    for k in 0..3 {
+        let e = chi[k] - clo[k];
+        if !(e > 0.0 && e.is_finite()) {
+            continue;
+        }
+        let mut count = [0usize; BINS];
+        let mut blo = [[f64::INFINITY; 3]; BINS];
+        let mut bhi = [[f64::NEG_INFINITY; 3]; BINS];
+        for t in tris.iter() {
+            let b = bin_of(centroid(t)[k], k);
+            count[b] += 1;
+            grow(&mut blo[b], &mut bhi[b], t);
+        }
+        // Right-to-left sweep: the cost of each right part.
+        let mut right = [0.0f64; BINS];
+        let (mut lo, mut hi, mut n) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3], 0usize);
+        for b in (1..BINS).rev() {
+            for j in 0..3 {
+                lo[j] = lo[j].min(blo[b][j]);
+                hi[j] = hi[j].max(bhi[b][j]);
+            }
+            n += count[b];
+            right[b] = half_area(lo, hi) * n as f64;
+        }
+        let (mut lo, mut hi, mut n) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3], 0usize);
+        for b in 0..BINS - 1 {
+            for j in 0..3 {
+                lo[j] = lo[j].min(blo[b][j]);
+                hi[j] = hi[j].max(bhi[b][j]);
+            }
+            n += count[b];
+            if n == 0 || n == tris.len() {
+                continue;
+            }
+            let cost = half_area(lo, hi) * n as f64 + right[b + 1];
+            if best.is_none_or(|(c, _, _)| cost < c) {
+                best = Some((cost, k, b));
+            }
+        }
+    }
+    let (_, k, b) = best?;
+    // In-place partition: centroids in bins 0..=b first.
+    let mut i = 0;
+    let mut j = tris.len();
+    while i < j {
+        if bin_of(centroid(&tris[i])[k], k) <= b {
+            i += 1;
+        } else {
+            j -= 1;
+            tris.swap(i, j);
+        }
+    }
+    (i > 0 && i < tris.len()).then_some(i)
+}
+
+fn build(tris: &mut [[P3; 3]], first: usize, end: usize, depth: usize, nodes: &mut Vec<Node>) -> u32 {
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
     let mut clo = [f64::INFINITY; 3];
     let mut chi = [f64::NEG_INFINITY; 3];
     for t in &tris[first..end] {
-        for v in t {
-            for k in 0..3 {
-                lo[k] = lo[k].min(v[k]);
-                hi[k] = hi[k].max(v[k]);
-            }
-        }
+        grow(&mut lo, &mut hi, t);
         let c = centroid(t);
         for k in 0..3 {
             clo[k] = clo[k].min(c[k]);
@@ -246,13 +355,25 @@ fn build(tris: &mut [[P3; 3]], first: usize, end: usize, nodes: &mut Vec<Node>) 
     if end - first <= LEAF {
         return me;
     }
-    let axis = (0..3)
-        .max_by(|&a, &b| (chi[a] - clo[a]).total_cmp(&(chi[b] - clo[b])))
-        .unwrap_or(0);
-    let mid = (first + end) / 2;
-    tris[first..end].select_nth_unstable_by(mid - first, |a, b| centroid(a)[axis].total_cmp(&centroid(b)[axis]));
-    build(tris, first, mid, nodes);
-    let right = build(tris, mid, end, nodes);
+    let sah = if depth < SAH_DEPTH {
+        sah_split(&mut tris[first..end], clo, chi)
+    } else {
+        None
+    };
+    let mid = match sah {
+        Some(left) => first + left,
+        None => {
+            let axis = (0..3)
+                .max_by(|&a, &b| (chi[a] - clo[a]).total_cmp(&(chi[b] - clo[b])))
+                .unwrap_or(0);
+            let mid = (first + end) / 2;
+            tris[first..end]
+                .select_nth_unstable_by(mid - first, |a, b| centroid(a)[axis].total_cmp(&centroid(b)[axis]));
+            mid
+        }
+    };
+    build(tris, first, mid, depth + 1, nodes);
+    let right = build(tris, mid, end, depth + 1, nodes);
     nodes[me as usize].first = right;
     nodes[me as usize].count = 0;
     me
@@ -375,6 +496,105 @@ mod tests {
                     "query {i}, bounded"
                 );
             }
+        }
+    }
+
+    /// The search's answer is the minimum over all triangles, bit for bit (the brute
+    /// force's), on soups, on grids of equidistant triangles (ties), and on a rooms-like
+    /// set of flat, axis-aligned clusters (the surface area heuristic's splits), warm and
+    /// bounded; and the tree stays within the search's stack.
+    #[test]
+    fn search_equals_the_brute_force_minimum_bit_for_bit() {
+        let mut rng = Rng::new(31);
+        let mut sets: Vec<Vec<[P3; 3]>> = Vec::new();
+        let mut soup = Vec::new();
+        for _ in 0..700 {
+            let a = [rng.f() * 2.0, rng.f() * 2.0, rng.f()];
+            let b = add_scaled(a, [rng.f() - 0.5, rng.f() - 0.5, rng.f() - 0.5], 0.2);
+            let c = add_scaled(a, [rng.f() - 0.5, rng.f() - 0.5, rng.f() - 0.5], 0.2);
+            soup.push([a, b, c]);
+        }
+        sets.push(soup);
+        // Boxes of quads (floor, ceiling, walls of rooms 1 x 1 x 0.75, 4 quads a side).
+        let mut rooms = Vec::new();
+        for i in 0..3 {
+            for j in 0..2 {
+                let (x0, y0) = (i as f64 * 1.1, j as f64 * 1.1);
+                for u in 0..4 {
+                    for v in 0..4 {
+                        let (s, t, d) = (u as f64 * 0.25, v as f64 * 0.25, 0.25);
+                        for q in [
+                            [
+                                [x0 + s, y0 + t, 0.0],
+                                [x0 + s + d, y0 + t, 0.0],
+                                [x0 + s + d, y0 + t + d, 0.0],
+                                [x0 + s, y0 + t + d, 0.0],
+                            ],
+                            [
+                                [x0 + s, y0 + t, 0.75],
+                                [x0 + s + d, y0 + t, 0.75],
+                                [x0 + s + d, y0 + t + d, 0.75],
+                                [x0 + s, y0 + t + d, 0.75],
+                            ],
+                            [
+                                [x0 + s, y0, t * 0.75],
+                                [x0 + s + d, y0, t * 0.75],
+                                [x0 + s + d, y0, (t + d) * 0.75],
+                                [x0 + s, y0, (t + d) * 0.75],
+                            ],
+                            [
+                                [x0, y0 + s, t * 0.75],
+                                [x0, y0 + s + d, t * 0.75],
+                                [x0, y0 + s + d, (t + d) * 0.75],
+                                [x0, y0 + s, (t + d) * 0.75],
+                            ],
+                            [
+                                [x0 + 1.0, y0 + s, t * 0.75],
+                                [x0 + 1.0, y0 + s + d, t * 0.75],
+                                [x0 + 1.0, y0 + s + d, (t + d) * 0.75],
+                                [x0 + 1.0, y0 + s, (t + d) * 0.75],
+                            ],
+                        ] {
+                            rooms.push([q[0], q[1], q[2]]);
+                            rooms.push([q[0], q[2], q[3]]);
+                        }
+                    }
+                }
+            }
+        }
+        sets.push(rooms);
+        // Many copies of one triangle and a degenerate one (equal centroids, zero area).
+        let mut same = vec![[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]; 40];
+        same.push([[0.5, 0.5, 0.5]; 3]);
+        sets.push(same);
+        for tris in sets {
+            let f = ClearanceField::from_triangles(tris.clone());
+            let depth = tree_depth(&f, 0);
+            assert!(depth < 60, "depth {depth}");
+            let mut p = [0.5, 0.5, 0.4];
+            for i in 0..1500 {
+                p = if i % 4 == 0 {
+                    [rng.f() * 3.6 - 0.2, rng.f() * 2.4 - 0.2, rng.f() * 1.2 - 0.2]
+                } else {
+                    add_scaled(p, [rng.f() - 0.5, rng.f() - 0.5, rng.f() - 0.5], 0.05)
+                };
+                let want = brute(&tris, p);
+                assert_eq!(f.distance(p).to_bits(), want.to_bits(), "query {i} at {p:?}");
+                assert_eq!(
+                    f.distance_below(p, want * 1.5).to_bits(),
+                    want.to_bits(),
+                    "query {i}, bounded"
+                );
+            }
+        }
+    }
+
+    fn tree_depth(f: &ClearanceField, ni: usize) -> usize {
+        let n = f.nodes[ni];
+        if n.count > 0 {
+            1
+        } else {
+            1 + tree_depth(f, ni + 1).max(tree_depth(f, n.first as usize))
         }
     }
 
