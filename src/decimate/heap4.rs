@@ -104,18 +104,25 @@ impl<T: Ord + Copy> Heap4<T> {
             if first >= n {
                 break;
             }
-            let end = (first + D).min(n);
-            let mut c = first;
-            for k in first + 1..end {
-                if self.v[k] > self.v[c] {
-                    c = k;
-                }
-            }
+            let c = self.largest_child(first, n);
             self.v[i] = self.v[c];
             i = c;
         }
         self.v[i] = x;
         self.sift_up(i);
+    }
+
+    /// The index of the greatest of the children `first..first + D` (clipped to `n`);
+    /// the first of equal ones, as the scan in order finds it.
+    fn largest_child(&self, first: usize, n: usize) -> usize {
+        let end = (first + D).min(n);
+        let mut c = first;
+        for k in first + 1..end {
+            if self.v[k] > self.v[c] {
+                c = k;
+            }
+        }
+        c
     }
 
     fn sift_up(&mut self, mut i: usize) {
@@ -139,13 +146,7 @@ impl<T: Ord + Copy> Heap4<T> {
             if first >= n {
                 break;
             }
-            let end = (first + D).min(n);
-            let mut c = first;
-            for k in first + 1..end {
-                if self.v[k] > self.v[c] {
-                    c = k;
-                }
-            }
+            let c = self.largest_child(first, n);
             if self.v[c] <= x {
                 break;
             }
