@@ -153,6 +153,39 @@ fn main() {
             println!("room {r} ({}): final cells {finals:?}", room.name);
         }
     }
+    // DIAG_CELLS=id,id,..: every face of those cells, its patch's cells and occluders.
+    if let Ok(ids) = std::env::var("DIAG_CELLS") {
+        for id in ids.split(',').map(|x| x.parse::<usize>().unwrap()) {
+            let c = &cx.cells[id];
+            println!(
+                "cell {id} tet {:?} alive {} exterior {} flat {} vol {:.3e}",
+                c.tet,
+                c.alive,
+                c.exterior,
+                c.flat,
+                c.poly.volume()
+            );
+            for (f, &t) in c.poly.faces.iter().zip(&c.poly.tags) {
+                let pa = &cx.patches[t as usize];
+                println!(
+                    "  face patch {t} cells {:?} alive {} area {:.3e} verts {:?}",
+                    pa.cells,
+                    pa.alive,
+                    f.area(),
+                    f.verts
+                );
+                for o in &pa.occluders {
+                    println!(
+                        "    occ src {:?} faces {} area {:.3e} {:?}",
+                        o.source,
+                        o.faces,
+                        o.polygon.area(),
+                        o.polygon.verts
+                    );
+                }
+            }
+        }
+    }
     println!("check_valid: {:?}", cx.check_valid().err().map(|e| e.to_string()));
     println!("validate: {:?}", cx.validate(&m).err().map(|e| e.to_string()));
     for l in &cx.leaks {

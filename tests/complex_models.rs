@@ -482,3 +482,31 @@ fn polygon_inside_a_thin_wedge_covers_its_faces() {
     assert_eq!(cx.stats.leaks, 0, "{:?}", cx.leaks);
     assert_eq!(cx.stats.interior_regions, 1);
 }
+
+/// caverns-3 (watertight marching-cubes blobs) with every triangle split at its centroid
+/// leaked although closed (held-out stress seeds, session 13): two of the split triangles
+/// meet at a shallow ridge 4.6e-4 above the diagonal of a sliver tetrahedron, and the big
+/// tetrahedron on that diagonal was crossed by both walls too thinly for either to split
+/// it, and neither wall alone covers the section of its plane (each covers only its side
+/// of the ridge), so the wedge under the ridge joined the cavern to the outside through a
+/// 4.5e-5 portal. The sealing pass now also accepts a section covered on one side of
+/// another crossing wall's plane (a fold); the second wall then closes the wedge.
+#[test]
+fn closed_model_with_a_ridge_over_a_sliver_does_not_leak() {
+    use portalfind::suite::stress::{Variant, apply};
+    let c = portalfind::suite::case(portalfind::suite::Family::Caverns, 3).expect("caverns-3");
+    let (vs, ps) = apply(Variant::CentroidSplit, &c.model.vertices, &c.model.polygons);
+    let m = from_soup("caverns-3 centroid split", vs, ps).expect("model");
+    assert!(portalfind::suite::stress::is_closed(&m), "the input is closed");
+    // As `run` builds it (with the default crack sealing), checked at every stage.
+    let cx = portalfind::pipeline::complex_of(&m).expect("a valid complex");
+    cx.validate(&m).unwrap_or_else(|e| panic!("complex validate: {e}"));
+    assert_eq!(cx.stats.tolerance_level, 0, "valid at the model's own tolerances");
+    assert_eq!(
+        cx.stats.leaks,
+        0,
+        "{:?}",
+        cx.leaks.first().map(|l| l.first_portal_point)
+    );
+    assert_eq!(cx.stats.interior_regions, 1);
+}

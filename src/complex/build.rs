@@ -581,7 +581,12 @@ impl CellComplex {
                     continue;
                 }
                 for (s, ps) in &groups {
-                    let r = self.seal_split(model, c, &supports[*s], ps, of);
+                    let folds: Vec<Plane> = groups
+                        .iter()
+                        .filter(|(o, _)| o != s)
+                        .map(|(o, _)| supports[*o].plane)
+                        .collect();
+                    let r = self.seal_split(model, c, &supports[*s], ps, of, &folds);
                     if r == Err(true) && refused_in.last() != Some(&t) {
                         refused_in.push(t);
                     }
@@ -614,8 +619,9 @@ impl CellComplex {
         support: &Support,
         ps: &[PolygonId],
         of: &[(usize, bool)],
+        folds: &[Plane],
     ) -> Result<(CellId, CellId), bool> {
-        self.seal_split_inner(model, c, support, ps, of)
+        self.seal_split_inner(model, c, support, ps, of, folds)
             .ok_or(false)?
             .ok_or(true)
     }
@@ -627,6 +633,7 @@ impl CellComplex {
         support: &Support,
         ps: &[PolygonId],
         of: &[(usize, bool)],
+        folds: &[Plane],
     ) -> Option<Option<(CellId, CellId)>> {
         let plane = support.plane;
         let cell = &self.cells[c.idx()].poly;
@@ -655,13 +662,27 @@ impl CellComplex {
         };
         let section = &s.section;
         let polys: Vec<ConvexPolygon> = holes.iter().map(|(_, q)| q.clone()).collect();
-        let open = section.subtract(&polys, &relaxed).pieces;
-        if open.iter().any(|q| !super::graph::is_sliver(q, &self.tol)) {
-            return None;
-        }
-        let sa = section.area();
-        let open_area: f64 = open.iter().map(|q| q.area()).sum();
-        if sa - open_area < 0.5 * sa {
+        // The section is sealed when the polygons cover it up to cracks; or, at a fold
+        // (two walls meeting at a crease inside the cell, each crossing it too thinly to
+        // split it: a ridge of a curved surface over a sliver tetrahedron's diagonal), when
+        // they cover its part on one side of another crossing wall's plane: the piece cut
+        // off there is then cut by that wall in turn, and the wedge behind both walls is
+        // closed by the two of them (issue 16, caverns-3 under the centroid split).
+        let covered = |part: &ConvexPolygon| {
+            let open = part.subtract(&polys, &relaxed).pieces;
+            if open.iter().any(|q| !super::graph::is_sliver(q, &self.tol)) {
+                return false;
+            }
+            let sa = part.area();
+            let open_area: f64 = open.iter().map(|q| q.area()).sum();
+            sa - open_area >= 0.5 * sa
+        };
+        let sealed = covered(section)
+            || folds.iter().any(|f| {
+                let (front, back) = section.split(f, &relaxed);
+                matches!((&front, &back), (Some(_), Some(_))) && [front, back].iter().flatten().any(|q| covered(q))
+            });
+        if !sealed {
             return None;
         }
         // Occluders in the section's orientation (normal along the support plane, into the
