@@ -89,8 +89,16 @@ fn main() {
         }
         let (dec, steps) = portalfind::decimate::clearance::trace(&cx, &settings, gate);
         let mut rooms: std::collections::HashMap<u32, std::collections::BTreeSet<usize>> = Default::default();
-        for (r, room) in c.truth.rooms.iter().enumerate() {
-            for cell in portalfind::experiment::eval::locate_in_complex(&cx, &room.samples)
+        // The truth's samples moved with the model (rigid motions, scalings), in its frame.
+        let map = portalfind::suite::stress::point_map(v);
+        let moved: Vec<Vec<[f64; 3]>> = c
+            .truth
+            .rooms
+            .iter()
+            .map(|r| r.samples.iter().map(|&p| m.from_user(map.as_ref().map_or(p, |f| f(p)))).collect())
+            .collect();
+        for (r, samples) in moved.iter().enumerate() {
+            for cell in portalfind::experiment::eval::locate_in_complex(&cx, samples)
                 .into_iter()
                 .flatten()
             {
@@ -146,7 +154,7 @@ fn main() {
         );
         for (r, room) in c.truth.rooms.iter().enumerate() {
             let finals: std::collections::BTreeSet<Option<usize>> =
-                portalfind::experiment::eval::locate_in_complex(&cx, &room.samples)
+                portalfind::experiment::eval::locate_in_complex(&cx, &moved[r])
                     .into_iter()
                     .map(|c| c.and_then(|c| dec.partition.cell_of(c)))
                     .collect();

@@ -137,7 +137,7 @@ fn random_rotation(seed: u64) -> [[f64; 3]; 3] {
 }
 
 /// The point map of a rigid motion or scaling (`None` for the other variants).
-fn point_map(v: Variant) -> Option<Box<dyn Fn(P3) -> P3>> {
+pub fn point_map(v: Variant) -> Option<Box<dyn Fn(P3) -> P3>> {
     match v {
         Variant::Rotate789 => Some(Box::new(crate::base::rigid::rotate_789)),
         Variant::RotateRandom(s) => {
