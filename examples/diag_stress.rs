@@ -95,7 +95,12 @@ fn main() {
             .truth
             .rooms
             .iter()
-            .map(|r| r.samples.iter().map(|&p| m.from_user(map.as_ref().map_or(p, |f| f(p)))).collect())
+            .map(|r| {
+                r.samples
+                    .iter()
+                    .map(|&p| m.from_user(map.as_ref().map_or(p, |f| f(p))))
+                    .collect()
+            })
             .collect();
         for (r, samples) in moved.iter().enumerate() {
             for cell in portalfind::experiment::eval::locate_in_complex(&cx, samples)
@@ -136,6 +141,26 @@ fn main() {
                     st.volumes[0],
                     st.volumes[1]
                 );
+            }
+            // DIAG_ROOM=r: merges of room r's component with a component holding no samples.
+            if let Some(r) = std::env::var("DIAG_ROOM").ok().and_then(|r| r.parse::<usize>().ok()) {
+                let has = |x: &std::collections::BTreeSet<usize>| x.contains(&r);
+                if !st.kept
+                    && ((has(&ra) && rb.is_empty()) || (has(&rb) && ra.is_empty()))
+                    && st.volumes[0].min(st.volumes[1]) > 0.5
+                {
+                    println!(
+                        "step {i}: room {r} absorbs w {:.4} peaks [{:.4}, {:.4}] saddle {:.4} portal {:.4} volumes [{:.3}, {:.3}] ({} side has the room)",
+                        st.weight,
+                        st.peaks[0],
+                        st.peaks[1],
+                        st.saddle,
+                        st.portal_area,
+                        st.volumes[0],
+                        st.volumes[1],
+                        if has(&ra) { "first" } else { "second" }
+                    );
+                }
             }
             if !st.kept {
                 let (lo, hi) = (a.min(b), a.max(b));
