@@ -680,7 +680,7 @@ impl CellComplex {
         let sealed = covered(section)
             || folds.iter().any(|f| {
                 let (front, back) = section.split(f, &relaxed);
-                matches!((&front, &back), (Some(_), Some(_))) && [front, back].iter().flatten().any(|q| covered(q))
+                matches!((&front, &back), (Some(_), Some(_))) && [front, back].iter().flatten().any(&covered)
             });
         if !sealed {
             return None;
