@@ -11,14 +11,7 @@ fn main() {
     let m = if a[1] == "obj" {
         portalfind::model::load_model(std::path::Path::new(&a[2])).expect("load")
     } else {
-        let fam: Family = match a[1].as_str() {
-            "thesis" => Family::Thesis,
-            "tessellated" => Family::Tessellated,
-            "greedy" => Family::Greedy,
-            "multistorey" => Family::MultiStorey,
-            "caverns" => Family::Caverns,
-            f => panic!("family {f}"),
-        };
+        let fam: Family = Family::from_name(&a[1]).unwrap_or_else(|| panic!("family {}", a[1]));
         let seed: u64 = a[2].parse().unwrap();
         let arg = a.get(4).map(|s| s.parse::<f64>().unwrap()).unwrap_or(1.0);
         let v = match a[3].as_str() {

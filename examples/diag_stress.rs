@@ -5,14 +5,7 @@ use portalfind::suite::{Family, case};
 
 fn main() {
     let a: Vec<String> = std::env::args().collect();
-    let fam: Family = match a[1].as_str() {
-        "thesis" => Family::Thesis,
-        "tessellated" => Family::Tessellated,
-        "greedy" => Family::Greedy,
-        "multistorey" => Family::MultiStorey,
-        "caverns" => Family::Caverns,
-        f => panic!("family {f}"),
-    };
+    let fam: Family = Family::from_name(&a[1]).unwrap_or_else(|| panic!("family {}", a[1]));
     let seed: u64 = a[2].parse().unwrap();
     let arg = a.get(4).map(|s| s.parse::<f64>().unwrap()).unwrap_or(1.0);
     let v = match a[3].as_str() {
@@ -199,23 +192,7 @@ fn main() {
                 c.poly.volume()
             );
             for (f, &t) in c.poly.faces.iter().zip(&c.poly.tags) {
-                let pa = &cx.patches[t as usize];
-                println!(
-                    "  face patch {t} cells {:?} alive {} area {:.3e} verts {:?}",
-                    pa.cells,
-                    pa.alive,
-                    f.area(),
-                    f.verts
-                );
-                for o in &pa.occluders {
-                    println!(
-                        "    occ src {:?} faces {} area {:.3e} {:?}",
-                        o.source,
-                        o.faces,
-                        o.polygon.area(),
-                        o.polygon.verts
-                    );
-                }
+                print_patch(&cx, t, "  face", f);
             }
         }
     }
@@ -266,24 +243,31 @@ fn main() {
                 for &t in &c0.poly.tags {
                     let pa = &cx.patches[t as usize];
                     if pa.cells.contains(&w[1]) {
-                        println!(
-                            "     patch {t} cells {:?} area {:.4e} verts {:?}",
-                            pa.cells,
-                            pa.polygon.area(),
-                            pa.polygon.verts
-                        );
-                        for o in &pa.occluders {
-                            println!(
-                                "       occ src {:?} faces {} area {:.4e} {:?}",
-                                o.source,
-                                o.faces,
-                                o.polygon.area(),
-                                o.polygon.verts
-                            );
-                        }
+                        print_patch(&cx, t, "     patch", &pa.polygon);
                     }
                 }
             }
         }
+    }
+}
+
+/// One patch (`polygon`: its geometry as seen from the caller) with its cells and occluders.
+fn print_patch(cx: &portalfind::complex::CellComplex, t: u32, indent: &str, polygon: &portalfind::geom::ConvexPolygon) {
+    let pa = &cx.patches[t as usize];
+    println!(
+        "{indent} {t} cells {:?} alive {} area {:.4e} verts {:?}",
+        pa.cells,
+        pa.alive,
+        polygon.area(),
+        polygon.verts
+    );
+    for o in &pa.occluders {
+        println!(
+            "{indent}   occ src {:?} faces {} area {:.4e} {:?}",
+            o.source,
+            o.faces,
+            o.polygon.area(),
+            o.polygon.verts
+        );
     }
 }

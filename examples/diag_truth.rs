@@ -4,14 +4,7 @@ use portalfind::suite::{Family, case};
 
 fn main() {
     let a: Vec<String> = std::env::args().collect();
-    let fam = match a[1].as_str() {
-        "thesis" => Family::Thesis,
-        "tessellated" => Family::Tessellated,
-        "greedy" => Family::Greedy,
-        "multistorey" => Family::MultiStorey,
-        "caverns" => Family::Caverns,
-        f => panic!("family {f}"),
-    };
+    let fam = Family::from_name(&a[1]).unwrap_or_else(|| panic!("family {}", a[1]));
     let c = case(fam, a[2].parse().unwrap()).expect("case");
     for (i, r) in c.truth.rooms.iter().enumerate() {
         let lo = [0, 1, 2].map(|k| r.samples.iter().map(|p| p[k]).fold(f64::INFINITY, f64::min));

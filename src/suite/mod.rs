@@ -121,6 +121,11 @@ impl Family {
         }
     }
 
+    /// The family whose [`name`](Family::name) is `name`.
+    pub fn from_name(name: &str) -> Option<Family> {
+        Family::ALL.into_iter().find(|f| f.name() == name)
+    }
+
     /// Seeds of the family.
     pub fn seeds(self) -> std::ops::Range<u64> {
         match self {
