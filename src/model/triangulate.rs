@@ -100,10 +100,66 @@ pub(crate) fn classify(pts: &[[f64; 3]], poly: &[u32], normal: [f64; 3]) -> Shap
     }
 
     let (tris, fallback) = ear_clip(pts, poly, k, s);
+    if fallback && !planar && n == 4 && !has_repeat {
+        // A warped quad whose outline crosses itself in projection (the
+        // vertex noise of a thin face, or a bent quad of a scanned or exported mesh): it is
+        // still exactly two triangles along either diagonal, which meet only on it (two
+        // triangles sharing an edge and not coplanar cross nowhere else), with the quad's
+        // outline as boundary and its winding. Split along the flatter one.
+        return Shape::Triangulated {
+            tris: warped_quad(pts, poly).to_vec(),
+            nonplanar: true,
+            fallback: false,
+        };
+    }
     Shape::Triangulated {
         tris,
         nonplanar: !planar,
         fallback,
+    }
+}
+
+/// The two triangles of a non-planar quad `poly` (four distinct vertices) along the diagonal
+/// whose triangles' unit normals agree most (the less folded surface), then the shorter
+/// diagonal, then 0–2. Both criteria are geometric, so the choice does not depend on which
+/// vertex the face starts at (up to exact ties).
+fn warped_quad(pts: &[[f64; 3]], poly: &[u32]) -> [[u32; 3]; 2] {
+    let p = |i: usize| pts[poly[i % 4] as usize];
+    let unit_normal = |a: [f64; 3], b: [f64; 3], c: [f64; 3]| {
+        let (u, v) = (
+            [b[0] - a[0], b[1] - a[1], b[2] - a[2]],
+            [c[0] - a[0], c[1] - a[1], c[2] - a[2]],
+        );
+        let n = [
+            u[1] * v[2] - u[2] * v[1],
+            u[2] * v[0] - u[0] * v[2],
+            u[0] * v[1] - u[1] * v[0],
+        ];
+        let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        if l > 0.0 && l.is_finite() {
+            [n[0] / l, n[1] / l, n[2] / l]
+        } else {
+            [0.0; 3]
+        }
+    };
+    // Diagonal i–(i+2): triangles (i, i+1, i+2) and (i, i+2, i+3).
+    let agreement = |i: usize| {
+        let (m, n) = (
+            unit_normal(p(i), p(i + 1), p(i + 2)),
+            unit_normal(p(i), p(i + 2), p(i + 3)),
+        );
+        m[0] * n[0] + m[1] * n[1] + m[2] * n[2]
+    };
+    let (a0, a1) = (agreement(0), agreement(1));
+    let first = match a0.partial_cmp(&a1) {
+        Some(Ordering::Greater) => true,
+        Some(Ordering::Less) => false,
+        _ => dist2(&p(0), &p(2)) <= dist2(&p(1), &p(3)),
+    };
+    if first {
+        [[poly[0], poly[1], poly[2]], [poly[0], poly[2], poly[3]]]
+    } else {
+        [[poly[1], poly[2], poly[3]], [poly[1], poly[3], poly[0]]]
     }
 }
 
@@ -423,6 +479,47 @@ mod tests {
             }
             s => panic!("{s:?}"),
         }
+    }
+
+    #[test]
+    fn warped_quad_crossing_in_projection_is_split_along_its_flatter_diagonal() {
+        // A bow tie seen from +z, the dominant axis of its Newell normal (0, 0, 1): edge
+        // 0-1 crosses edge 2-3; vertices 1 and 3 are lifted out of the plane.
+        let pts = [[0.0, 0.0, 0.0], [1.0, 1.0, 0.3], [1.0, 0.0, 0.0], [0.0, 2.0, 0.3]];
+        let (tris, fallback) = ear_clip(&pts, &[0, 1, 2, 3], 2, 1);
+        assert!(fallback, "the projection must cross itself for this test: {tris:?}");
+        let poly = [0u32, 1, 2, 3];
+        let shape = run(&pts, &poly);
+        let Shape::Triangulated {
+            tris,
+            nonplanar,
+            fallback,
+        } = shape
+        else {
+            panic!("{shape:?}")
+        };
+        assert!(nonplanar && !fallback, "a warped quad is not a best-effort fallback");
+        assert_eq!(tris.len(), 2);
+        // The same diagonal from every starting vertex, and the quad's own boundary.
+        for r in 0..4 {
+            let rotated: Vec<u32> = (0..4).map(|i| poly[(i + r) % 4]).collect();
+            let Shape::Triangulated { tris: t, .. } = run(&pts, &rotated) else {
+                panic!()
+            };
+            let diag = |t: &[[u32; 3]]| {
+                let mut d: Vec<u32> = t[0].iter().filter(|v| t[1].contains(v)).copied().collect();
+                d.sort();
+                d
+            };
+            assert_eq!(diag(&t), diag(&tris), "start {r}");
+        }
+        let all: Vec<(u32, u32)> = tris
+            .iter()
+            .flat_map(|t| (0..3).map(move |i| (t[i], t[(i + 1) % 3])))
+            .collect();
+        let mut edges: Vec<(u32, u32)> = all.iter().copied().filter(|&(a, b)| !all.contains(&(b, a))).collect();
+        edges.sort();
+        assert_eq!(edges, vec![(0, 1), (1, 2), (2, 3), (3, 0)]);
     }
 
     #[test]
