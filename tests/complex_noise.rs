@@ -44,3 +44,20 @@ fn greedy_noise_1e5_validates() {
 fn four_room_distorted_noise_1e5_validates() {
     validate_variant(Family::Thesis, 2, Variant::Noise(1e-5)).unwrap();
 }
+
+/// Noise of 1e-2 of the diagonal warps the thin faces' quads until their outline crosses
+/// itself in projection; the loader used to refuse the model ("4 non-coplanar vertices
+/// whose outline crosses itself", the stress table's noise-1e-2 rows). A warped quad is
+/// two triangles along its flatter diagonal, so the closed building loads, and its
+/// complex is valid and does not leak.
+#[test]
+fn warped_quads_under_noise_1e2_load_and_the_closed_building_stays_closed() {
+    let c = case(Family::Tessellated, 3).expect("case");
+    let (vs, ps) = apply(Variant::Noise(1e-2), &c.model.vertices, &c.model.polygons);
+    let m = portalfind::model::from_soup(&c.name, vs, ps).expect("warped quads are split, not refused");
+    assert!(m.report.nonplanar_polygons > 0, "the variant must warp quads");
+    let cx = portalfind::pipeline::complex_of_unchecked(&m).expect("complex");
+    cx.check_valid().expect("valid cells");
+    cx.validate(&m).expect("valid complex");
+    assert_eq!(cx.stats.leaks, 0, "a closed model does not leak");
+}
