@@ -6,6 +6,7 @@
 
 use std::cmp::Ordering;
 
+use crate::base::vec::{cross, dot, normalize, sub};
 use crate::predicates::{collinear, orient2d_proj, orient3d};
 
 /// What to do with a polygon.
@@ -125,30 +126,14 @@ pub(crate) fn classify(pts: &[[f64; 3]], poly: &[u32], normal: [f64; 3]) -> Shap
 /// vertex the face starts at (up to exact ties).
 fn warped_quad(pts: &[[f64; 3]], poly: &[u32]) -> [[u32; 3]; 2] {
     let p = |i: usize| pts[poly[i % 4] as usize];
-    let unit_normal = |a: [f64; 3], b: [f64; 3], c: [f64; 3]| {
-        let (u, v) = (
-            [b[0] - a[0], b[1] - a[1], b[2] - a[2]],
-            [c[0] - a[0], c[1] - a[1], c[2] - a[2]],
-        );
-        let n = [
-            u[1] * v[2] - u[2] * v[1],
-            u[2] * v[0] - u[0] * v[2],
-            u[0] * v[1] - u[1] * v[0],
-        ];
-        let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-        if l > 0.0 && l.is_finite() {
-            [n[0] / l, n[1] / l, n[2] / l]
-        } else {
-            [0.0; 3]
-        }
-    };
+    let unit_normal = |a: [f64; 3], b: [f64; 3], c: [f64; 3]| normalize(&cross(&sub(&b, &a), &sub(&c, &a)));
     // Diagonal i–(i+2): triangles (i, i+1, i+2) and (i, i+2, i+3).
     let agreement = |i: usize| {
         let (m, n) = (
             unit_normal(p(i), p(i + 1), p(i + 2)),
             unit_normal(p(i), p(i + 2), p(i + 3)),
         );
-        m[0] * n[0] + m[1] * n[1] + m[2] * n[2]
+        dot(&m, &n)
     };
     let (a0, a1) = (agreement(0), agreement(1));
     let first = match a0.partial_cmp(&a1) {
