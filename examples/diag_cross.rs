@@ -53,10 +53,10 @@ fn main() {
                 "cell {c} alive {} tet {:?} vol {:.3e}",
                 cell.alive,
                 cell.tet,
-                cell.poly.volume()
+                cell.volume()
             );
-            for (fi, f) in cell.poly.faces.iter().enumerate() {
-                let t = cell.poly.tags[fi] as usize;
+            for (fi, f) in cell.poly().faces.iter().enumerate() {
+                let t = cell.tags()[fi] as usize;
                 let pa = &cx.patches[t];
                 println!(
                     "  face {fi} patch {t} cells {:?} area {:.3e} occ {:?} d {:?}",
@@ -97,11 +97,11 @@ fn main() {
         "cell {cell} tet {:?} flat {} vol {:.3e} faces {}",
         c.tet,
         c.flat,
-        c.poly.volume(),
-        c.poly.faces.len()
+        c.volume(),
+        c.poly().faces.len()
     );
-    for (fi, f) in c.poly.faces.iter().enumerate() {
-        let t = c.poly.tags[fi] as usize;
+    for (fi, f) in c.poly().faces.iter().enumerate() {
+        let t = c.tags()[fi] as usize;
         let pa = &cx.patches[t];
         println!(
             " face {fi} tag {t} cells {:?} area {:.3e} occ {:?}",
@@ -117,7 +117,7 @@ fn main() {
         }
     }
     let plane = cx.polygon_planes[polygon as usize];
-    let ds: Vec<f64> = c.poly.vertices().iter().map(|v| pl.eval(v)).collect();
+    let ds: Vec<f64> = c.vertices().iter().map(|v| pl.eval(v)).collect();
     println!(
         " cell vertex distances {:?}",
         ds.iter().map(|d| format!("{d:.2e}")).collect::<Vec<_>>()
@@ -132,9 +132,9 @@ fn main() {
             })
             .collect(),
     );
-    println!(" clip {:?}", c.poly.clip_polygon(&proj, &tol).map(|q| q.area()));
+    println!(" clip {:?}", c.poly().clip_polygon(&proj, &tol).map(|q| q.area()));
     for (name, t) in [("tol", tol), ("sealing", tol.sealing())] {
-        match c.poly.cut(&plane, &t, 0) {
+        match c.poly().cut(&plane, &t, 0) {
             portalfind::geom::Cut::Split(s) => println!(
                 " cut {name}: split vols {:.3e} {:.3e} section {:.3e} on_dist {:.3e} checks {:?} {:?}",
                 s.front.volume(),
@@ -151,11 +151,11 @@ fn main() {
     // Other live cells of the same tetrahedron.
     for (ci, o) in cx.cells.iter().enumerate() {
         if o.alive && o.tet == c.tet && ci != cell as usize {
-            let ds: Vec<f64> = o.poly.vertices().iter().map(|v| pl.eval(v)).collect();
+            let ds: Vec<f64> = o.vertices().iter().map(|v| pl.eval(v)).collect();
             let (lo, hi) = ds
                 .iter()
                 .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &d| (a.min(d), b.max(d)));
-            println!(" sibling {ci} vol {:.3e} d [{lo:.3e}, {hi:.3e}]", o.poly.volume());
+            println!(" sibling {ci} vol {:.3e} d [{lo:.3e}, {hi:.3e}]", o.volume());
         }
     }
 }

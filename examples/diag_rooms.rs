@@ -434,8 +434,8 @@ pub fn leak_diag(model: &portalfind::model::Model, cx: &portalfind::complex::Cel
             cx.is_membrane(c),
             cx.is_thin(c),
             cx.faces_occluder(c),
-            cell.poly.volume(),
-            cell.poly.faces.len()
+            cell.volume(),
+            cell.poly().faces.len()
         )
     };
     for leak in &cx.leaks {
@@ -465,8 +465,7 @@ pub fn leak_diag(model: &portalfind::model::Model, cx: &portalfind::complex::Cel
                             );
                         }
                         let direct: Vec<u32> = cx.cells[c.idx()]
-                            .poly
-                            .tags
+                            .tags()
                             .iter()
                             .copied()
                             .filter(|&tg| cx.patches[tg as usize].cells.contains(&d))
@@ -485,7 +484,7 @@ pub fn leak_diag(model: &portalfind::model::Model, cx: &portalfind::complex::Cel
                         }
                         // Distances of both cells' vertices to the crossed polygon's plane.
                         for e in [c, d] {
-                            let ds: Vec<f64> = cx.cells[e.idx()].poly.vertices().iter().map(|v| pl.eval(v)).collect();
+                            let ds: Vec<f64> = cx.cells[e.idx()].vertices().iter().map(|v| pl.eval(v)).collect();
                             println!(
                                 "    cell {} vertex distances to plane: min {:.3e} max {:.3e}",
                                 e.0,

@@ -189,9 +189,9 @@ fn main() {
                 c.alive,
                 c.exterior,
                 c.flat,
-                c.poly.volume()
+                c.volume()
             );
-            for (f, &t) in c.poly.faces.iter().zip(&c.poly.tags) {
+            for (f, &t) in c.poly().faces.iter().zip(c.tags()) {
                 print_patch(&cx, t, "  face", f);
             }
         }
@@ -211,7 +211,7 @@ fn main() {
                 w[0],
                 cx.faces_occluder(w[0]),
                 cx.is_thin(w[0]),
-                c0.poly.volume(),
+                c0.volume(),
                 c0.tet,
                 w[1],
                 p.map(|p| (
@@ -240,7 +240,7 @@ fn main() {
                         }
                     }
                 }
-                for &t in &c0.poly.tags {
+                for &t in c0.tags() {
                     let pa = &cx.patches[t as usize];
                     if pa.cells.contains(&w[1]) {
                         print_patch(&cx, t, "     patch", &pa.polygon);

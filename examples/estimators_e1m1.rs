@@ -31,9 +31,9 @@ fn area<E: AreaEstimator>(
     cache: &mut HashMap<CellId, E::State>,
 ) -> f64 {
     let state = cache.entry(pieces[0]).or_insert_with(|| {
-        let mut s = E::piece(&cx.cells[pieces[0].idx()].poly);
+        let mut s = E::piece(&cx.cells[pieces[0].idx()].poly());
         for p in &pieces[1..] {
-            E::absorb(&mut s, E::piece(&cx.cells[p.idx()].poly));
+            E::absorb(&mut s, E::piece(&cx.cells[p.idx()].poly()));
         }
         s
     });

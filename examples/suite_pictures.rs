@@ -47,7 +47,7 @@ fn main() {
             let mut d = String::new();
             for p in &c.pieces {
                 let pts: Vec<[f64; 2]> = run.cx.cells[p.idx()]
-                    .poly
+                    .poly()
                     .vertices()
                     .iter()
                     .map(|v| {

@@ -30,10 +30,10 @@ fn build(m: &Model) -> (CellComplex, BspStats) {
     cx.validate(m).unwrap_or_else(|e| panic!("{}: validate: {e}", m.name));
     for (i, c) in cx.alive_cells() {
         assert!(c.tet.is_none() && !c.flat);
-        let mut tags = c.poly.tags.clone();
+        let mut tags = c.tags().to_vec();
         tags.sort_unstable();
         tags.dedup();
-        assert_eq!(tags.len(), c.poly.tags.len(), "{}: cell {i} repeats a patch", m.name);
+        assert_eq!(tags.len(), c.tags().len(), "{}: cell {i} repeats a patch", m.name);
     }
     assert_eq!(st.leaves, cx.alive_cells().count(), "{}", m.name);
     assert_eq!(cx.stats.tetrahedra, 0);
@@ -98,7 +98,7 @@ fn two_rooms_leaves_and_separation() {
     assert_eq!(cx.stats.leaks, 0);
     assert_eq!(cx.stats.interior_regions, 1);
     // Air: two 48 m³ rooms and the 2 m³ corridor.
-    let vol: f64 = cx.active_cells().map(|(_, c)| c.poly.volume()).sum();
+    let vol: f64 = cx.active_cells().map(|(_, c)| c.volume()).sum();
     assert!((vol - 98.0).abs() < 1e-9, "{vol}");
     let settings = Settings {
         stop: StopRule::Cells(2),
@@ -129,13 +129,10 @@ fn room_grid_is_valid_and_sealed() {
     println!("room_grid(2,2,8): {st:?}");
     assert_eq!(cx.stats.leaks, 0);
     assert_eq!(cx.stats.interior_regions, 1);
-    let vol: f64 = cx.active_cells().map(|(_, c)| c.poly.volume()).sum();
+    let vol: f64 = cx.active_cells().map(|(_, c)| c.volume()).sum();
     assert!((vol - (4.0 * 48.0 + 4.0)).abs() < 1e-6, "{vol}");
     for c in centres {
-        assert!(
-            cx.active_cells().any(|(_, cell)| cell.poly.contains(&c, &cx.tol)),
-            "{c:?}"
-        );
+        assert!(cx.active_cells().any(|(_, cell)| cell.contains(&c, &cx.tol)), "{c:?}");
     }
 }
 
@@ -165,7 +162,7 @@ fn thesis_models_are_valid() {
         assert_eq!(cx.stats.interior_regions, 1, "{name}");
         for room in &tm.truth.rooms {
             for p in &room.samples {
-                let inside = cx.active_cells().any(|(_, c)| c.poly.contains(p, &cx.tol));
+                let inside = cx.active_cells().any(|(_, c)| c.contains(p, &cx.tol));
                 assert!(inside, "{name}: sample {p:?} of {} in no active cell", room.name);
             }
         }
@@ -209,8 +206,7 @@ fn output_is_deterministic() {
         let (a, sa) = bsp::build_complex(&m);
         let (b, sb) = bsp::build_complex(&m);
         assert_eq!(counts(&a, &sa), counts(&b, &sb), "{}", m.name);
-        let vols =
-            |cx: &CellComplex| -> Vec<u64> { cx.alive_cells().map(|(_, c)| c.poly.volume().to_bits()).collect() };
+        let vols = |cx: &CellComplex| -> Vec<u64> { cx.alive_cells().map(|(_, c)| c.volume().to_bits()).collect() };
         assert_eq!(vols(&a), vols(&b), "{}", m.name);
     }
 }

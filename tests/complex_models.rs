@@ -15,7 +15,7 @@ fn build(s: &Soup) -> (Model, CellComplex) {
 }
 
 fn active_volume(cx: &CellComplex) -> f64 {
-    cx.active_cells().map(|(_, c)| c.poly.volume()).sum()
+    cx.active_cells().map(|(_, c)| c.volume()).sum()
 }
 
 fn rot_offset(s: &Soup) -> Soup {
@@ -35,8 +35,8 @@ fn one_box_room() {
 #[test]
 fn validate_refuses_a_cell_whose_faces_share_a_patch() {
     let (m, mut cx) = build(&scenes::box_room());
-    let c = cx.cells.iter().position(|c| c.alive && c.poly.tags.len() >= 2).unwrap();
-    let tags = &mut cx.cells[c].poly.tags;
+    let c = cx.cells.iter().position(|c| c.alive && c.tags().len() >= 2).unwrap();
+    let tags = &mut cx.cells[c].poly_mut().tags;
     tags[1] = tags[0];
     let e = cx.validate(&m).unwrap_err().to_string();
     assert!(e.contains("two faces of the cell name the same patch"), "{e}");
@@ -74,7 +74,7 @@ fn leaky_room_is_reported() {
     // point; every point inside the room, ending on the missing wall.
     let pts = cx.leak_pointfile(l);
     assert_eq!(pts.len(), 2 * l.path.len());
-    assert_eq!(pts[0], cx.cells[l.from_cell.idx()].poly.centroid());
+    assert_eq!(pts[0], cx.cells[l.from_cell.idx()].centroid());
     assert_eq!(*pts.last().unwrap(), l.hull_point);
     for (i, p) in pts.iter().enumerate() {
         let inside = (0..3).all(|a| p[a] >= -1e-9 && p[a] <= [4.0, 4.0, 3.0][a] + 1e-9);
@@ -83,7 +83,7 @@ fn leaky_room_is_reported() {
             // A portal point lies on both cells it joins.
             let (a, b) = (l.path[i / 2], l.path[i / 2 + 1]);
             for c in [a, b] {
-                assert!(cx.cells[c.idx()].poly.contains(p, &cx.tol), "point {i} {p:?}");
+                assert!(cx.cells[c.idx()].contains(p, &cx.tol), "point {i} {p:?}");
             }
         }
     }
@@ -198,7 +198,7 @@ fn e1m1_builds_and_validates() {
     assert!(cx.stats.interior_regions < 20, "{:?}", cx.stats);
     // The player start is inside.
     let start = [480.0, -352.0, 88.0];
-    assert!(cx.active_cells().any(|(_, c)| c.poly.contains(&start, &cx.tol)));
+    assert!(cx.active_cells().any(|(_, c)| c.contains(&start, &cx.tol)));
 }
 
 #[test]

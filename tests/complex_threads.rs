@@ -95,8 +95,8 @@ fn checks_report_the_same_first_error_on_any_thread_count() {
     let mut bad = cx.clone();
     let alive: Vec<usize> = (0..bad.cells.len()).filter(|&i| bad.cells[i].alive).collect();
     for &i in [alive[alive.len() / 3], alive[2 * alive.len() / 3]].iter() {
-        let t = bad.cells[i].poly.tags[0];
-        bad.cells[i].poly.tags[1] = t;
+        let t = bad.cells[i].tags()[0];
+        bad.cells[i].poly_mut().tags[1] = t;
     }
     let one = on(1, || bad.check_valid()).unwrap_err();
     let two = on(2, || bad.check_valid()).unwrap_err();

@@ -157,7 +157,7 @@ fn weights_are_finite_and_runs_are_consistent_on_every_model() {
     for (name, soup) in &models {
         let cx = build(soup);
         let n0 = cx.active_cells().count();
-        let vol0: f64 = cx.active_cells().map(|(_, c)| c.poly.volume()).sum();
+        let vol0: f64 = cx.active_cells().map(|(_, c)| c.volume()).sum();
         for (h, e) in all_combinations() {
             let d = Decimation::run(&cx, &settings(h, e, StopRule::None));
             assert_eq!(d.stop, StopReason::Exhausted);
@@ -310,7 +310,8 @@ fn incremental_projected_areas_equal_from_scratch_areas() {
                 let frame = Frame::new(portal.mean_normal, portal.pieces[0].centroid()).unwrap();
                 for (side, id) in [s.a, s.b].into_iter().enumerate() {
                     let cell = &part.cells[part.cell_of(id).unwrap()];
-                    let polys: Vec<_> = cell.pieces.iter().map(|p| &cx.cells[p.idx()].poly).collect();
+                    let owned: Vec<_> = cell.pieces.iter().map(|p| cx.cells[p.idx()].poly()).collect();
+                    let polys: Vec<_> = owned.iter().map(|p| &**p).collect();
                     let direct = projected_area_direct(e, &polys, &frame);
                     let rel = (direct - s.projected[side]).abs() / direct;
                     worst = worst.max(rel);
@@ -414,7 +415,7 @@ fn e1m1_decimates_end_to_end() {
     ws.sort_by(f64::total_cmp);
     assert!(ws[ws.len() / 2] < 2.0, "median weight {}", ws[ws.len() / 2]);
     assert!(d.steps.last().unwrap().weight > 5.0);
-    let vol0: f64 = cx.active_cells().map(|(_, c)| c.poly.volume()).sum();
+    let vol0: f64 = cx.active_cells().map(|(_, c)| c.volume()).sum();
     let vol: f64 = d.partition.cells.iter().map(|c| c.volume).sum();
     assert!((vol - vol0).abs() <= 1e-9 * vol0);
     assert_eq!(Decimation::replay(&cx, &d.steps).unwrap(), d.partition);

@@ -393,7 +393,7 @@ fn obj_has_one_object_per_cell_and_portal_and_reads_back() {
             let surface: f64 = c
                 .pieces
                 .iter()
-                .map(|p| r.cx.cells[p.source_cell as usize].poly.surface_area())
+                .map(|p| r.cx.cells[p.source_cell as usize].surface_area())
                 .sum();
             assert!(face_area[&name] < surface - 1e-9, "{name}: interior faces written");
         }

@@ -111,14 +111,14 @@ fn released_complex_decimates_and_writes_the_same() {
         );
         assert_eq!(released.cells.len(), full.cells.len());
         for (id, c) in full.active_cells() {
-            assert_eq!(released.cells[id.idx()].poly, c.poly, "{name}: active cell {id:?}");
+            assert_eq!(released.cells[id.idx()].poly(), c.poly(), "{name}: active cell {id:?}");
         }
         assert!(
             released
                 .cells
                 .iter()
                 .filter(|c| !c.active())
-                .all(|c| c.poly.faces.is_empty())
+                .all(|c| c.poly().faces.is_empty())
         );
         // The exact estimator only on the small scene (it is slow on the grid).
         let n = if name == "grid" { 1 } else { settings.len() };

@@ -48,7 +48,7 @@ fn the_complex_is_motion_invariant_on_a_fixed_tetrahedralization() {
     // The cells really sit at the moved coordinates.
     let x = |cx: &CellComplex| {
         let c = cx.cells.iter().find(|c| c.active()).unwrap();
-        c.poly.faces[0].verts[0][0]
+        c.poly().faces[0].verts[0][0]
     };
     assert!((x(&cx1) - x(&cx0) - 1e3).abs() < 1e-6);
 }

@@ -16,11 +16,11 @@ fn room_grid_is_one_sealed_region() {
     assert_eq!(cx.stats.leaks, 0, "{:?}", cx.stats);
     assert_eq!(cx.stats.interior_regions, 1, "{:?}", cx.stats);
     // Air volume: 6 rooms of 48 m³ plus 7 corridors of 1 m³.
-    let vol: f64 = cx.active_cells().map(|(_, c)| c.poly.volume()).sum();
+    let vol: f64 = cx.active_cells().map(|(_, c)| c.volume()).sum();
     assert!((vol - (6.0 * 48.0 + 7.0)).abs() < 1e-6, "{vol}");
     // Every room centre lies in an active cell.
     let tol = cx.tol;
     for c in centres {
-        assert!(cx.active_cells().any(|(_, cell)| cell.poly.contains(&c, &tol)), "{c:?}");
+        assert!(cx.active_cells().any(|(_, cell)| cell.contains(&c, &tol)), "{c:?}");
     }
 }

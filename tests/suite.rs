@@ -168,7 +168,7 @@ fn box_truth(rooms: &[Aabb]) -> SuiteTruth {
 fn cells_by(cx: &CellComplex, key: impl Fn([f64; 3]) -> usize, n: usize) -> Vec<Vec<CellId>> {
     let mut g = vec![Vec::new(); n];
     for (id, c) in cx.active_cells() {
-        g[key(c.poly.centroid())].push(id);
+        g[key(c.centroid())].push(id);
     }
     g
 }
@@ -243,10 +243,10 @@ fn merging_two_rooms_scores_what_the_formulas_say() {
     // larger half's share.
     let mut halves = [Vec::new(), Vec::new()];
     for &c in &g[0] {
-        let x = cx.cells[c.idx()].poly.centroid()[0];
+        let x = cx.cells[c.idx()].centroid()[0];
         halves[usize::from(x >= 2.0)].push(c);
     }
-    let vol = |cs: &[CellId]| cs.iter().map(|c| cx.cells[c.idx()].poly.volume()).sum::<f64>();
+    let vol = |cs: &[CellId]| cs.iter().map(|c| cx.cells[c.idx()].volume()).sum::<f64>();
     let best = vol(&halves[0]).max(vol(&halves[1]));
     let split = partition_from_groups(&cx, &[halves[0].clone(), halves[1].clone(), g[1].clone(), g[2].clone()]);
     let s = score(&cx, &split, &truth, &MetricOptions::default());

@@ -64,7 +64,7 @@ fn check_complex(m: &ThesisModel, model: &Model) -> CellComplex {
     assert_eq!(s.interior_regions, 1, "{}", m.name);
     for room in &m.truth.rooms {
         for p in &room.samples {
-            let inside = cx.active_cells().any(|(_, c)| c.poly.contains(p, &cx.tol));
+            let inside = cx.active_cells().any(|(_, c)| c.contains(p, &cx.tol));
             assert!(inside, "{}: sample {p:?} of {} in no active cell", m.name, room.name);
         }
     }

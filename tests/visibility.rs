@@ -101,7 +101,7 @@ fn cells_in(cx: &CellComplex, lo: [f64; 3], hi: [f64; 3]) -> Vec<usize> {
     cx.active_cells()
         .enumerate()
         .filter(|(_, (_, c))| {
-            let p = c.poly.centroid();
+            let p = c.centroid();
             (0..3).all(|k| p[k] > lo[k] && p[k] < hi[k])
         })
         .map(|(i, _)| i)
@@ -110,7 +110,7 @@ fn cells_in(cx: &CellComplex, lo: [f64; 3], hi: [f64; 3]) -> Vec<usize> {
 
 fn cell_at(cx: &CellComplex, p: [f64; 3]) -> usize {
     cx.active_cells()
-        .position(|(_, c)| c.poly.contains(&p, &cx.tol))
+        .position(|(_, c)| c.contains(&p, &cx.tol))
         .expect("a cell holds the point")
 }
 
@@ -213,7 +213,7 @@ fn pvs_is_conservative_by_sampling() {
         if fine {
             let pv = pvs::compute(&g, &PvsSettings::default());
             let polys = CellPolygons::from_complex(&m, &cx, &index);
-            let vols: Vec<f64> = cx.active_cells().map(|(_, c)| c.poly.volume()).collect();
+            let vols: Vec<f64> = cx.active_cells().map(|(_, c)| c.volume()).collect();
             let (rep, costs) = cost::evaluate(&pv, &polys, &vols);
             let (srep, _) = sample::check(&m, &cx, &sample::pieces_of_complex(&cx), &pv, &polys, &costs, &ss);
             eprintln!(
@@ -550,11 +550,10 @@ fn walkthrough_counts_on_two_rooms() {
     }
     assert!(seen.iter().all(|&s| s));
     for f in &frames {
-        let holder = part.cells.iter().position(|c| {
-            c.pieces
-                .iter()
-                .any(|p| cx.cells[p.idx()].poly.contains(&f.eye, &cx.tol))
-        });
+        let holder = part
+            .cells
+            .iter()
+            .position(|c| c.pieces.iter().any(|p| cx.cells[p.idx()].contains(&f.eye, &cx.tol)));
         assert_eq!(holder, Some(f.cell as usize), "frame {}: eye {:?}", f.frame, f.eye);
         assert!(f.portal <= f.frustum && f.portal_rect <= f.frustum, "frame {f:?}");
         assert!(f.frustum <= r.total_triangles);
@@ -905,7 +904,7 @@ fn walkthrough_frame_counts_by_hand_on_two_rooms() {
     let cell_of = |p: [f64; 3]| -> u32 {
         part.cells
             .iter()
-            .position(|c| c.pieces.iter().any(|q| cx.cells[q.idx()].poly.contains(&p, &cx.tol)))
+            .position(|c| c.pieces.iter().any(|q| cx.cells[q.idx()].contains(&p, &cx.tol)))
             .expect("a cell holds the point") as u32
     };
     let (ca, cc, cb) = (

@@ -299,13 +299,7 @@ pub fn build_complex_with(model: &Model, settings: &BspSettings) -> (CellComplex
             alive: true,
         })
         .collect();
-    let cells = vec![Cell {
-        poly: root,
-        tet: None,
-        alive: true,
-        exterior: false,
-        flat: false,
-    }];
+    let cells = vec![Cell::new(root, None, false)];
     let cstats = ComplexStats {
         polygons: model.polygons.len(),
         polygons_clipped: model.polygons.len(),
@@ -506,7 +500,7 @@ impl Builder<'_> {
         self.stats.polygon_splits += n_split;
         self.stats.fragments_consumed += on.len();
         let new_patch = cx.patches.len() as u32;
-        let region = &cx.cells[c.idx()].poly;
+        let region = &cx.cells[c.idx()].poly();
         // The cut with the normal tolerances, then (a region that straddles the plane but
         // whose cut was refused as a sliver: section below the area tolerance, or a piece
         // below the minimum volume) with the sealing thresholds, as the Delaunay path seals
@@ -624,7 +618,7 @@ fn attach_on_faces(cx: &mut CellComplex, c: CellId, f: &Frag, plane: &Plane) -> 
     let mut adds: Vec<(usize, Occluder)> = Vec::new();
     let cell = &cx.cells[c.idx()];
     let un = plane.unit_normal();
-    for (fi, face) in cell.poly.faces.iter().enumerate() {
+    for (fi, face) in cell.poly().faces.iter().enumerate() {
         // Faces within 60° of the plane (as the portal graph's flat-cell rule) whose part
         // under the fragment lies within `eps` of it: the face need not lie on the plane
         // as a whole (a face on a nearly coplanar neighbour's plane, diverging from it
@@ -635,7 +629,7 @@ fn attach_on_faces(cx: &mut CellComplex, c: CellId, f: &Frag, plane: &Plane) -> 
         let Some(ov) = clip_onto_within(&f.poly, face, &tol, eps) else {
             continue;
         };
-        let t = cell.poly.tags[fi] as usize;
+        let t = cell.tags()[fi] as usize;
         let side = if cx.patches[t].cells[0] == c { 0 } else { 1 };
         // The fragment faces this cell when the face's outward normal opposes its front.
         let faces = if dot(&face.normal(), &fnorm) < 0.0 {
@@ -682,19 +676,19 @@ pub fn seal_thin_leaves(cx: &mut CellComplex) -> (usize, usize) {
             continue;
         }
         let before = adds.len();
-        for (fi, f) in cell.poly.faces.iter().enumerate() {
+        for (fi, f) in cell.poly().faces.iter().enumerate() {
             if f.area() < tol.area_abs() {
                 continue;
             }
             let (nf, pf) = (f.normal(), f.plane());
-            let tf = cell.poly.tags[fi] as usize;
+            let tf = cell.tags()[fi] as usize;
             let patch_f = &cx.patches[tf];
             let pn_f = patch_f.polygon.normal();
-            for (gi, g) in cell.poly.faces.iter().enumerate() {
+            for (gi, g) in cell.poly().faces.iter().enumerate() {
                 if gi == fi || dot(&nf, &g.normal()) >= 0.0 {
                     continue;
                 }
-                let patch_g = &cx.patches[cell.poly.tags[gi] as usize];
+                let patch_g = &cx.patches[cell.tags()[gi] as usize];
                 let pn_g = patch_g.polygon.normal();
                 for o in &patch_g.occluders {
                     if !o.polygon.verts.iter().all(|v| pf.eval(v).abs() <= w) {
@@ -839,7 +833,7 @@ mod tests {
         assert_eq!(st.polygon_splits, 0);
         assert_eq!(cx.stats.exterior_cells_removed, 1);
         assert_eq!(cx.stats.active_cells, 6);
-        let vol: f64 = cx.active_cells().map(|(_, c)| c.poly.volume()).sum();
+        let vol: f64 = cx.active_cells().map(|(_, c)| c.volume()).sum();
         assert!((vol - (48.0 - 1.0)).abs() < 1e-9, "{vol}");
         assert_eq!(cx.stats.interior_regions, 1);
     }

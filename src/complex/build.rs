@@ -1,6 +1,6 @@
 //! Stages 1–4: cells from tetrahedra, conforming polygons, splitting, sealing cracks.
 
-use super::{Cell, CellComplex, ComplexStats, HULL, Occluder, Patch, PatchId};
+use super::{Cell, CellComplex, ComplexStats, HULL, Occluder, Patch, PatchId, TetShape};
 use crate::delaunay::{FACE_SLOTS, Tetrahedralization};
 use crate::geom::{
     Classification, ConvexPolygon, ConvexPolyhedron, Cut, Plane, PolygonSplit, PolyhedronSplit, min_volume,
@@ -166,30 +166,46 @@ impl CellComplex {
                 let t = TetId(ti as u32);
                 // The patch polygon is oriented outward of cells[0]; reverse it where this
                 // tetrahedron is cells[1].
-                let faces = (0..4)
-                    .map(|i| {
-                        let p = &patches[face_patch[ti][i] as usize];
-                        if p.cells[0] == CellId(t.0) {
-                            p.polygon.clone()
-                        } else {
-                            p.polygon.reversed()
-                        }
-                    })
-                    .collect();
-                let poly = ConvexPolyhedron::from_faces(faces, face_patch[ti].to_vec());
+                let faces = std::array::from_fn(|i| {
+                    let p = &patches[face_patch[ti][i] as usize];
+                    if p.cells[0] == CellId(t.0) {
+                        p.polygon.clone()
+                    } else {
+                        p.polygon.reversed()
+                    }
+                });
+                let faces: [ConvexPolygon; 4] = faces;
                 // Near-flat tetrahedra (four nearly coplanar input points, e.g. the corners
                 // of a wall quad after rotation) are valid Delaunay cells but hold no space.
                 // Its thickness is its smallest height, 3V / (largest face area); thinner
                 // than the weld distance (the same rule `cut` uses) means flat.
-                let amax = poly.faces.iter().map(|f| f.area()).fold(0.0, f64::max);
+                let amax = faces.iter().map(|f| f.area()).fold(0.0, f64::max);
                 let flat =
                     3.0 * tet.volume(t) < tol.weld_abs().max(tol.plane_abs()) * amax || tet.volume(t) < min_volume(tol);
-                Cell {
-                    poly,
-                    tet: Some(t),
-                    alive: true,
-                    exterior: false,
-                    flat,
+                // Kept implicit: each face is the slot-order face rotated to the patch
+                // polygon's start (always, as the patch is the same triangle, outward).
+                let corners = tet.tet(t).map(|v| *tet.point(v));
+                let start = |i: usize| {
+                    (0..3u8).find(|&r| {
+                        let s = FACE_SLOTS[i];
+                        (0..3).all(|k| faces[i].verts[k] == corners[s[(r as usize + k) % 3]])
+                    })
+                };
+                match [start(0), start(1), start(2), start(3)] {
+                    [Some(a), Some(b), Some(c), Some(d)] => Cell::tetrahedron(
+                        TetShape {
+                            corners,
+                            tags: face_patch[ti],
+                            start: [a, b, c, d],
+                        },
+                        Some(t),
+                        flat,
+                    ),
+                    _ => Cell::new(
+                        ConvexPolyhedron::from_faces(faces.to_vec(), face_patch[ti].to_vec()),
+                        Some(t),
+                        flat,
+                    ),
                 }
             })
             .collect();
@@ -252,7 +268,7 @@ impl CellComplex {
             .with_min_len(4096)
             .filter_map(|pi| {
                 let t = self.patches[pi].cells[0];
-                let i = self.cells[t.idx()].poly.tags.iter().position(|&x| x == pi as u32)?;
+                let i = self.cells[t.idx()].tags().iter().position(|&x| x == pi as u32)?;
                 let k = key(&tet.face(TetId(t.0), i).map(|v| v.0));
                 wanted.contains_key(&k).then_some((k, PatchId(pi as u32)))
             })
@@ -441,7 +457,7 @@ impl CellComplex {
             let mut next: Vec<CellId> = Vec::new();
             match class {
                 Classification::Straddles => {
-                    let clip = clip_to_cell(polygon, &self.cells[c.idx()].poly, &self.tol);
+                    let clip = clip_to_cell(polygon, &self.cells[c.idx()].poly(), &self.tol);
                     let significant = clip.as_ref().is_some_and(|q| q.area() >= self.tol.area_abs());
                     let split = match clip {
                         Some(clip) if significant => self.split_cell(c, &plane, clip, pid),
@@ -486,7 +502,7 @@ impl CellComplex {
                             // A significant fragment on the front side that found no face.
                             let unplaced = significant
                                 && !attached
-                                && self.cells[c.idx()].poly.classify(&plane, &self.tol) != Classification::Back;
+                                && self.cells[c.idx()].poly().classify(&plane, &self.tol) != Classification::Back;
                             if unplaced {
                                 self.stats.unplaced_fragments += 1;
                             }
@@ -507,7 +523,7 @@ impl CellComplex {
                 }
             }
             for c in next {
-                for &t in &self.cells[c.idx()].poly.tags {
+                for &t in self.cells[c.idx()].tags() {
                     let n = self.across(PatchId(t), c);
                     if n != HULL && pl.mark(n, epoch) {
                         pl.queue.push_back(n);
@@ -636,7 +652,7 @@ impl CellComplex {
         folds: &[Plane],
     ) -> Option<Option<(CellId, CellId)>> {
         let plane = support.plane;
-        let cell = &self.cells[c.idx()].poly;
+        let cell = &self.cells[c.idx()].poly();
         if cell.classify(&plane, &self.tol) != Classification::Straddles {
             return None;
         }
@@ -657,7 +673,7 @@ impl CellComplex {
         }
         let relaxed = self.tol.sealing();
         let new_patch = self.patches.len() as u32;
-        let Cut::Split(s) = self.cells[c.idx()].poly.cut(&plane, &relaxed, new_patch) else {
+        let Cut::Split(s) = self.cells[c.idx()].poly().cut(&plane, &relaxed, new_patch) else {
             return None;
         };
         let section = &s.section;
@@ -721,7 +737,7 @@ impl CellComplex {
         hi: [f64; 3],
         slack: f64,
     ) -> bool {
-        let cell = &self.cells[c.idx()].poly;
+        let cell = &self.cells[c.idx()].poly();
         let (clo, chi) = cell.aabb();
         if (0..3).any(|a| clo[a] > hi[a] + slack || chi[a] < lo[a] - slack) {
             return false;
@@ -767,7 +783,7 @@ impl CellComplex {
                 _ => Classification::Coplanar,
             };
         }
-        cell.poly.classify(plane, &self.tol)
+        cell.poly().classify(plane, &self.tol)
     }
 
     /// Unsplit tetrahedra keep their four input vertices (faces may have gained collinear
@@ -800,13 +816,12 @@ impl CellComplex {
         // leaks through it (issue 16, noise 1e-5 of the diagonal).
         let sliver = self.tol.sliver_width();
         let mut thin: Option<bool> = None;
-        for (fi, f) in cell.poly.faces.iter().enumerate() {
+        for (fi, f) in cell.poly().faces.iter().enumerate() {
             if !f.verts.iter().all(|v| un.eval(v).abs() <= eps) {
                 if !near || !f.verts.iter().all(|v| un.eval(v).abs() <= sliver) {
                     continue;
                 }
-                let is_thin =
-                    *thin.get_or_insert_with(|| cell.poly.vertices().iter().all(|v| un.eval(v).abs() <= sliver));
+                let is_thin = *thin.get_or_insert_with(|| cell.vertices().iter().all(|v| un.eval(v).abs() <= sliver));
                 let n = f.normal();
                 let cos = (n[0] * un.n[0] + n[1] * un.n[1] + n[2] * un.n[2]).abs();
                 if !is_thin || cos < THIN_ATTACH_COS {
@@ -819,7 +834,7 @@ impl CellComplex {
             if ov.area() < self.tol.area_abs() {
                 continue;
             }
-            let t = cell.poly.tags[fi] as usize;
+            let t = cell.tags()[fi] as usize;
             // The patch is visited from both of its cells: attach once per polygon.
             if self.patches[t].occluders.iter().any(|o| o.source == pid) {
                 attached = true;
@@ -859,7 +874,7 @@ impl CellComplex {
         pid: PolygonId,
     ) -> Option<(CellId, CellId)> {
         let new_patch = self.patches.len() as u32;
-        let cut = self.cells[c.idx()].poly.cut(plane, &self.tol, new_patch);
+        let cut = self.cells[c.idx()].poly().cut(plane, &self.tol, new_patch);
         let Cut::Split(s) = cut else { return None };
         let clip = s.section.intersect_coplanar(&clip, &self.tol).unwrap_or(clip);
         let occ = Occluder {
@@ -925,7 +940,7 @@ impl CellComplex {
         if let Some(r) = self.try_commit_split(c, plane, s, occluders.clone()) {
             return Some(r);
         }
-        let alts = self.cells[c.idx()].poly.cut_alternatives(plane, tol, tag, chosen);
+        let alts = self.cells[c.idx()].poly().cut_alternatives(plane, tol, tag, chosen);
         for a in alts {
             if let Some(r) = self.try_commit_split(c, plane, a, occluders.clone()) {
                 self.stats.alternative_cuts += 1;
@@ -966,7 +981,7 @@ impl CellComplex {
             // when applied).
             let mut cuts: Vec<PolyhedronSplit> = vec![s.clone()];
             for &o in &members[1..] {
-                match self.cells[o.idx()].poly.cut_with_eps(plane, &relaxed, 0, eps) {
+                match self.cells[o.idx()].poly().cut_with_eps(plane, &relaxed, 0, eps) {
                     Cut::Split(so) => cuts.push(*so),
                     _ => return None,
                 }
@@ -975,16 +990,16 @@ impl CellComplex {
             // cells around them, the counts.
             let (ncells, npatches, stats) = (self.cells.len(), self.patches.len(), self.stats.clone());
             let mut saved_patches: Vec<(u32, Patch)> = Vec::new();
-            let mut saved_cells: Vec<(CellId, ConvexPolyhedron, bool)> = Vec::new();
+            let mut saved_cells: Vec<(CellId, Cell, bool)> = Vec::new();
             for &m in &members {
-                for &t in &self.cells[m.idx()].poly.tags {
+                for &t in self.cells[m.idx()].tags() {
                     if !saved_patches.iter().any(|(x, _)| *x == t) {
                         saved_patches.push((t, self.patches[t as usize].clone()));
                     }
                     let p = &self.patches[t as usize];
                     for n in p.cells {
                         if n != HULL && !saved_cells.iter().any(|(x, _, _)| *x == n) {
-                            saved_cells.push((n, self.cells[n.idx()].poly.clone(), self.cells[n.idx()].alive));
+                            saved_cells.push((n, self.cells[n.idx()].clone(), self.cells[n.idx()].alive));
                         }
                     }
                 }
@@ -1031,14 +1046,14 @@ impl CellComplex {
             let mut next_bad: Vec<CellId> = Vec::new();
             for &o in &touched {
                 let cell = &self.cells[o.idx()];
-                if cell.alive && !cell.flat && cell.poly.check(&self.tol).is_err() {
+                if cell.alive && !cell.flat && cell.poly().check(&self.tol).is_err() {
                     next_bad.push(o);
                 }
             }
             // Every face of the pieces must be on a patch that lists the piece.
             for &(f, b) in &pieces {
                 for x in [f, b] {
-                    for &t in &self.cells[x.idx()].poly.tags {
+                    for &t in self.cells[x.idx()].tags() {
                         if !self.patches[t as usize].cells.contains(&x) {
                             failed = true;
                         }
@@ -1070,8 +1085,8 @@ impl CellComplex {
             for (t, p) in saved_patches {
                 self.patches[t as usize] = p;
             }
-            for (n, poly, alive) in saved_cells {
-                self.cells[n.idx()].poly = poly;
+            for (n, cell, alive) in saved_cells {
+                self.cells[n.idx()] = cell;
                 self.cells[n.idx()].alive = alive;
             }
             if failed || next_bad.is_empty() {
@@ -1097,7 +1112,7 @@ impl CellComplex {
         let mut ok = true;
         let mut structural = false;
         let mut next_patch = self.patches.len() as u32 + 1; // after the section's patch
-        for &t in &self.cells[c.idx()].poly.tags {
+        for &t in self.cells[c.idx()].tags() {
             if !(s.front.tags.contains(&t) && s.back.tags.contains(&t)) {
                 continue;
             }
@@ -1111,7 +1126,7 @@ impl CellComplex {
             let k = match plan.iter().position(|(o, _)| *o == other) {
                 Some(k) => k,
                 None => {
-                    plan.push((other, self.cells[other.idx()].poly.clone()));
+                    plan.push((other, self.cells[other.idx()].poly().into_owned()));
                     plan.len() - 1
                 }
             };
@@ -1189,7 +1204,7 @@ impl CellComplex {
         let mut front = s.front;
         let mut back = s.back;
         // Old patches: those wholly on one side move to that piece; those in both are split.
-        let old_tags = self.cells[c.idx()].poly.tags.clone();
+        let old_tags = self.cells[c.idx()].tags().to_vec();
         for &t in &old_tags {
             let in_f = front.tags.contains(&t);
             let in_b = back.tags.contains(&t);
@@ -1243,23 +1258,11 @@ impl CellComplex {
         }
         let _ = &mut front;
         for (o, poly) in plan {
-            self.cells[o.idx()].poly = poly;
+            self.cells[o.idx()].set_poly(poly);
         }
         self.cells[c.idx()].alive = false;
-        self.cells.push(Cell {
-            poly: front,
-            tet,
-            alive: true,
-            exterior: false,
-            flat: false,
-        });
-        self.cells.push(Cell {
-            poly: back,
-            tet,
-            alive: true,
-            exterior: false,
-            flat: false,
-        });
+        self.cells.push(Cell::new(front, tet, false));
+        self.cells.push(Cell::new(back, tet, false));
         self.stats.cells_split += 1;
         (fid, bid)
     }

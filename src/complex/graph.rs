@@ -90,16 +90,12 @@ impl CellComplex {
         if cell.flat {
             return true;
         }
-        let poly = &cell.poly;
-        let Some(big) = poly.faces.iter().max_by(|a, b| a.area().total_cmp(&b.area())) else {
+        let Some(big) = cell.faces().max_by(|a, b| a.area().total_cmp(&b.area())) else {
             return false;
         };
         let pl = big.plane().normalized();
         let w = self.tol.sliver_width();
-        poly.faces
-            .iter()
-            .flat_map(|f| f.verts.iter())
-            .all(|v| pl.eval(v).abs() < w)
+        cell.faces().all(|f| f.verts.iter().all(|v| pl.eval(v).abs() < w))
     }
 
     /// Uncovered pieces of a patch: its polygon minus all occluders on it (either side).
@@ -242,9 +238,7 @@ impl CellComplex {
         let (mut links, mut hull) = (Vec::new(), Vec::new());
         for (f, cell) in self.alive_cells().filter(|(c, _)| membrane[c.idx()]) {
             let Some(n) = cell
-                .poly
-                .faces
-                .iter()
+                .faces()
                 .max_by(|a, b| a.area().total_cmp(&b.area()))
                 .map(|g| g.normal())
             else {
@@ -265,16 +259,15 @@ impl CellComplex {
     /// Faces of flat cell `f` whose outward normal points along `n` (`up`) or against it,
     /// by more than 60°, with area above the tolerance: (patch tag, face index).
     fn flat_faces(&self, f: CellId, n: [f64; 3], up: bool) -> Vec<(u32, usize)> {
-        let poly = &self.cells[f.idx()].poly;
-        poly.faces
-            .iter()
+        let cell = &self.cells[f.idx()];
+        cell.faces()
             .enumerate()
             .filter(|(_, g)| {
                 let m = g.normal();
                 let d = m[0] * n[0] + m[1] * n[1] + m[2] * n[2];
                 (if up { d > 0.5 } else { d < -0.5 }) && g.area() >= self.tol.area_abs()
             })
-            .map(|(i, _)| (poly.tags[i], i))
+            .map(|(i, _)| (cell.tags()[i], i))
             .collect()
     }
 
@@ -378,7 +371,7 @@ impl CellComplex {
             .collect();
         let mut pts = Vec::with_capacity(2 * leak.path.len() + 1);
         for (i, &c) in leak.path.iter().enumerate() {
-            pts.push(self.cells[c.idx()].poly.centroid());
+            pts.push(self.cells[c.idx()].centroid());
             if let Some(&d) = leak.path.get(i + 1) {
                 let key = if c < d { (c, d) } else { (d, c) };
                 if let Some(&k) = pairs.get(&key) {
@@ -652,13 +645,7 @@ mod tests {
             .into_iter()
             .map(|fs| {
                 let (f, t): (Vec<_>, Vec<_>) = fs.into_iter().unzip();
-                Cell {
-                    poly: ConvexPolyhedron::from_faces(f, t),
-                    tet: None,
-                    alive: true,
-                    exterior: false,
-                    flat: false,
-                }
+                Cell::new(ConvexPolyhedron::from_faces(f, t), None, false)
             })
             .collect();
         let mut cx = CellComplex::from_parts(cells, patches, tol, 4.0, Vec::new(), ComplexStats::default());

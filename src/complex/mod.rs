@@ -64,8 +64,12 @@ pub(crate) use build::{polygon_supports, project};
 pub use seal::{FRONT_SHARE, SealedOpening};
 pub use validate::{ComplexError, ComplexValidation};
 
-use crate::geom::{ConvexPolygon, ConvexPolyhedron, Plane};
+use std::borrow::Cow;
+
+use crate::delaunay::FACE_SLOTS;
+use crate::geom::{ConvexPolygon, ConvexPolyhedron, Plane, moments_of};
 use crate::ids::{CellId, PolygonId, TetId};
+use crate::predicates::P3;
 use crate::tolerances::Tolerances;
 use serde::Serialize;
 
@@ -100,10 +104,20 @@ pub struct Patch {
 }
 
 /// A convex cell.
+///
+/// Its geometry is held in one of two forms. A tetrahedron that no polygon has cut stays
+/// **implicit** ([`TetShape`]: its four corners, and per face its patch and where the
+/// face's vertex loop starts): 120 bytes and no heap block, against about 430 for the
+/// same tetrahedron as a [`ConvexPolyhedron`] (four inline triangles and two heap
+/// blocks). Most cells of a large model are never cut (every cell of a conforming
+/// building), so this is most of the complex's memory. [`Cell::poly`] gives the
+/// polyhedron either way: for an implicit tetrahedron, the very faces (vertex order,
+/// starting vertex, tags) it would hold if materialised, so no result depends on the
+/// form; [`Cell::poly_mut`] materialises it in place (the splitting stages).
 #[derive(Clone, Debug)]
 pub struct Cell {
-    /// Geometry; face tags are [`PatchId`]s.
-    pub poly: ConvexPolyhedron,
+    /// Geometry; face tags are [`PatchId`]s (see [`Cell::poly`], [`Cell::tags`]).
+    shape: Shape,
     /// The tetrahedron it descends from; `None` for cells not built from a
     /// tetrahedralization (the leaves of [`crate::bsp`]).
     pub tet: Option<TetId>,
@@ -119,10 +133,192 @@ pub struct Cell {
     pub flat: bool,
 }
 
+#[derive(Clone, Debug)]
+enum Shape {
+    Tet(TetShape),
+    Poly(ConvexPolyhedron),
+}
+
+/// An uncut tetrahedron's geometry without its faces materialised.
+///
+/// Face `i` is the triangle of the corners [`FACE_SLOTS`]`[i]` (the tetrahedralization's
+/// face `i`, outward), its loop rotated to start at its `start[i]`-th vertex, tagged
+/// `tags[i]`: exactly the patch polygon `from_tets` gives that face (reversed where the
+/// cell is the patch's second cell).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TetShape {
+    /// The four corners, in the tetrahedralization's slot order.
+    pub corners: [P3; 4],
+    /// Face `i`'s patch.
+    pub tags: [u32; 4],
+    /// Where face `i`'s vertex loop starts (0, 1 or 2).
+    pub start: [u8; 4],
+}
+
+impl TetShape {
+    /// Face `i`'s loop.
+    pub fn face(&self, i: usize) -> [P3; 3] {
+        let s = FACE_SLOTS[i];
+        let r = self.start[i] as usize;
+        std::array::from_fn(|k| self.corners[s[(r + k) % 3]])
+    }
+
+    /// The materialised polyhedron (faces in order `0..4`, tags `tags`).
+    pub fn polyhedron(&self) -> ConvexPolyhedron {
+        ConvexPolyhedron::from_faces(
+            (0..4).map(|i| ConvexPolygon::from_slice(&self.face(i))).collect(),
+            self.tags.to_vec(),
+        )
+    }
+}
+
 impl Cell {
+    /// An alive, interior cell with the given geometry.
+    pub fn new(poly: ConvexPolyhedron, tet: Option<TetId>, flat: bool) -> Cell {
+        Cell {
+            shape: Shape::Poly(poly),
+            tet,
+            alive: true,
+            exterior: false,
+            flat,
+        }
+    }
+
+    /// An alive, interior cell that is an implicit tetrahedron.
+    pub fn tetrahedron(shape: TetShape, tet: Option<TetId>, flat: bool) -> Cell {
+        Cell {
+            shape: Shape::Tet(shape),
+            tet,
+            alive: true,
+            exterior: false,
+            flat,
+        }
+    }
+
     /// Alive and not removed as exterior.
     pub fn active(&self) -> bool {
         self.alive && !self.exterior
+    }
+
+    /// The geometry as a polyhedron: borrowed, or built (no heap block per face) for an
+    /// implicit tetrahedron. Prefer [`Cell::faces`], [`Cell::tags`], [`Cell::volume`] and
+    /// friends where they serve: they build nothing.
+    pub fn poly(&self) -> Cow<'_, ConvexPolyhedron> {
+        match &self.shape {
+            Shape::Tet(t) => Cow::Owned(t.polyhedron()),
+            Shape::Poly(p) => Cow::Borrowed(p),
+        }
+    }
+
+    /// The geometry for changing it: an implicit tetrahedron is materialised first.
+    pub fn poly_mut(&mut self) -> &mut ConvexPolyhedron {
+        if let Shape::Tet(t) = &self.shape {
+            self.shape = Shape::Poly(t.polyhedron());
+        }
+        match &mut self.shape {
+            Shape::Poly(p) => p,
+            Shape::Tet(_) => unreachable!("materialised above"),
+        }
+    }
+
+    /// Replaces the geometry.
+    pub fn set_poly(&mut self, poly: ConvexPolyhedron) {
+        self.shape = Shape::Poly(poly);
+    }
+
+    /// The implicit tetrahedron, while the cell is one.
+    pub fn tet_shape(&self) -> Option<&TetShape> {
+        match &self.shape {
+            Shape::Tet(t) => Some(t),
+            Shape::Poly(_) => None,
+        }
+    }
+
+    /// One tag per face: the faces' patches.
+    pub fn tags(&self) -> &[u32] {
+        match &self.shape {
+            Shape::Tet(t) => &t.tags,
+            Shape::Poly(p) => &p.tags,
+        }
+    }
+
+    /// The faces, in the order of [`Cell::tags`] (borrowed, or inline triangles).
+    pub fn faces(&self) -> impl Iterator<Item = Cow<'_, ConvexPolygon>> + '_ {
+        let (tet, poly) = match &self.shape {
+            Shape::Tet(t) => (Some(t), &[][..]),
+            Shape::Poly(p) => (None, &p.faces[..]),
+        };
+        let n = if tet.is_some() { 4 } else { 0 };
+        (0..n)
+            .map(move |i| Cow::Owned(ConvexPolygon::from_slice(&tet.expect("n is 0 without one").face(i))))
+            .chain(poly.iter().map(Cow::Borrowed))
+    }
+
+    /// Number of faces (0 once the geometry was released).
+    pub fn num_faces(&self) -> usize {
+        self.tags().len()
+    }
+
+    /// `(volume, centroid)`, the bits of `poly().volume()` and `poly().centroid()`.
+    fn moments(&self) -> (f64, P3) {
+        match &self.shape {
+            Shape::Tet(t) => {
+                let f: [[P3; 3]; 4] = std::array::from_fn(|i| t.face(i));
+                moments_of(f.iter().map(|v| &v[..]))
+            }
+            Shape::Poly(p) => moments_of(p.faces.iter().map(|f| &f.verts[..])),
+        }
+    }
+
+    /// Volume (the bits of [`ConvexPolyhedron::volume`]).
+    pub fn volume(&self) -> f64 {
+        self.moments().0
+    }
+
+    /// Volume centroid (the bits of [`ConvexPolyhedron::centroid`]).
+    pub fn centroid(&self) -> P3 {
+        self.moments().1
+    }
+
+    /// Total boundary area (the bits of [`ConvexPolyhedron::surface_area`]).
+    pub fn surface_area(&self) -> f64 {
+        self.faces().map(|f| f.area()).sum()
+    }
+
+    /// Axis-aligned bounding box (as [`ConvexPolyhedron::aabb`]).
+    pub fn aabb(&self) -> (P3, P3) {
+        match &self.shape {
+            Shape::Tet(t) => {
+                let mut lo = [f64::INFINITY; 3];
+                let mut hi = [f64::NEG_INFINITY; 3];
+                for v in &t.corners {
+                    for k in 0..3 {
+                        lo[k] = lo[k].min(v[k]);
+                        hi[k] = hi[k].max(v[k]);
+                    }
+                }
+                (lo, hi)
+            }
+            Shape::Poly(p) => p.aabb(),
+        }
+    }
+
+    /// Whether `p` lies in the cell (as [`ConvexPolyhedron::contains`]).
+    pub fn contains(&self, p: &P3, tol: &Tolerances) -> bool {
+        match &self.shape {
+            Shape::Tet(_) => self.poly().contains(p, tol),
+            Shape::Poly(q) => q.contains(p, tol),
+        }
+    }
+
+    /// Distinct vertices, in order of first appearance (as [`ConvexPolyhedron::vertices`]).
+    pub fn vertices(&self) -> Vec<P3> {
+        self.poly().vertices()
+    }
+
+    /// Frees the geometry (no faces, no tags); ids and flags stay.
+    pub(crate) fn release(&mut self) {
+        self.shape = Shape::Poly(ConvexPolyhedron::from_faces(Vec::new(), Vec::new()));
     }
 }
 
@@ -331,8 +527,8 @@ impl CellComplex {
     pub fn release_inactive(&mut self) -> (usize, usize) {
         let (mut cells, mut patches) = (0, 0);
         for c in self.cells.iter_mut().filter(|c| !c.active()) {
-            if !c.poly.faces.is_empty() {
-                c.poly = ConvexPolyhedron::from_faces(Vec::new(), Vec::new());
+            if c.num_faces() > 0 {
+                c.release();
                 cells += 1;
             }
         }
@@ -375,10 +571,12 @@ impl CellComplex {
             p.occluders.iter_mut().for_each(|o| poly(&mut o.polygon));
         });
         self.cells.par_iter_mut().with_min_len(1024).for_each(|c| {
-            if c.alive {
-                c.poly.faces.shrink_to_fit();
-                c.poly.tags.shrink_to_fit();
-                c.poly.faces.iter_mut().for_each(poly);
+            if c.alive
+                && let Shape::Poly(p) = &mut c.shape
+            {
+                p.faces.shrink_to_fit();
+                p.tags.shrink_to_fit();
+                p.faces.iter_mut().for_each(poly);
             }
         });
         for list in [&mut self.portals, &mut self.cracks] {
@@ -419,7 +617,7 @@ impl CellComplex {
     /// tetrahedron.
     pub fn faces_occluder(&self, c: CellId) -> bool {
         let cell = &self.cells[c.idx()];
-        let facing = cell.poly.tags.iter().any(|&t| {
+        let facing = cell.tags().iter().any(|&t| {
             let p = &self.patches[t as usize];
             let side = if p.cells[0] == c { 0 } else { 1 };
             p.occluders
@@ -435,7 +633,7 @@ impl CellComplex {
     /// support plane and, by near attachment, on a tetrahedron face a hair away); the
     /// wedge lies inside the wall, so it must not make its region count as interior.
     pub fn is_thin(&self, c: CellId) -> bool {
-        let poly = &self.cells[c.idx()].poly;
-        2.0 * poly.volume() < self.tol.sliver_width() * poly.surface_area()
+        let cell = &self.cells[c.idx()];
+        2.0 * cell.volume() < self.tol.sliver_width() * cell.surface_area()
     }
 }

@@ -433,7 +433,7 @@ impl Sealer {
 fn faced_areas(cx: &CellComplex, c: CellId) -> (f64, f64) {
     let cell = &cx.cells[c.idx()];
     let (mut front, mut back) = (0.0, 0.0);
-    for &t in &cell.poly.tags {
+    for &t in cell.tags() {
         let p = &cx.patches[t as usize];
         let side = if p.cells[0] == c { 0 } else { 1 };
         for o in &p.occluders {

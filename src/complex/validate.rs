@@ -114,7 +114,7 @@ impl CellComplex {
                     continue;
                 }
                 let cell = &self.cells[c.idx()];
-                if !cell.alive || !cell.poly.tags.contains(&(pi as u32)) {
+                if !cell.alive || !cell.tags().contains(&(pi as u32)) {
                     return Err(ComplexError::Topology {
                         cell: c.0,
                         patch: pi as u32,
@@ -158,13 +158,13 @@ impl CellComplex {
         // Flat cells are exact, positively oriented tetrahedra (checked by the
         // tetrahedralization's validation) too thin for a floating-point check.
         if !c.flat
-            && let Err(why) = c.poly.check(&self.tol)
+            && let Err(why) = c.poly().check(&self.tol)
         {
             return Some(ComplexError::BadCell { cell: i as u32, why });
         }
         // Each face is its own patch (the `union` estimator keys boundary faces by patch).
         // The smallest repeated tag, as a sort would find it, without allocating.
-        let tags = &c.poly.tags;
+        let tags = c.tags();
         let dup = tags
             .iter()
             .enumerate()
@@ -217,8 +217,8 @@ impl CellComplex {
         let mut rounding = 0.0;
         for c in self.cells.iter().filter(|c| c.alive) {
             count += 1;
-            vol += c.poly.volume();
-            rounding += volume_rounding(&c.poly);
+            vol += c.volume();
+            rounding += volume_rounding(&c.poly());
         }
         let rel = (vol - self.hull_volume).abs() / self.hull_volume;
         // Cells fill the hull when the sums agree to 1e-9 relative, or within the rounding
@@ -358,7 +358,7 @@ impl CellComplex {
             if !c.alive || c.flat {
                 return None;
             }
-            let (a, b) = c.poly.aabb();
+            let (a, b) = c.aabb();
             let (lo, hi) = (a.map(|x| x - reach), b.map(|x| x + reach));
             cand.clear();
             grid.visit(&lo, &hi, |pi| {
@@ -373,7 +373,7 @@ impl CellComplex {
             cand.sort_unstable();
             cand.dedup();
             // Once per cell, not per candidate polygon.
-            let verts = c.poly.vertices();
+            let verts = c.vertices();
             let mut face_planes: Option<Vec<Plane>> = None;
             // The plane test per distinct plane (polygons on one support plane share it).
             tested.clear();
@@ -391,7 +391,7 @@ impl CellComplex {
                         }
                         let deep = front > thick
                             && back > thick
-                            && !(classify && c.poly.classify(&plane, tol) != Classification::Straddles);
+                            && !(classify && c.poly().classify(&plane, tol) != Classification::Straddles);
                         tested.push((plane, deep));
                         deep
                     }
@@ -399,7 +399,7 @@ impl CellComplex {
                 if !deep {
                     continue;
                 }
-                let face_planes = face_planes.get_or_insert_with(|| c.poly.planes());
+                let face_planes = face_planes.get_or_insert_with(|| c.poly().planes());
                 let mut cur = Some(poly.clone());
                 for f in face_planes.iter() {
                     cur = cur.and_then(|q| q.split(f, tol).1);
@@ -431,7 +431,7 @@ impl CellComplex {
                         });
                     }
                 }
-                if let Some(area) = crack_crossing(&c.poly, &plane, poly, tol) {
+                if let Some(area) = crack_crossing(&c.poly(), &plane, poly, tol) {
                     return Some(ComplexError::Crossing {
                         polygon: pi,
                         cell: ci as u32,

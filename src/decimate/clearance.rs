@@ -98,7 +98,7 @@ use super::hull3::Hull3;
 use super::project::{Frame, P2, hull2, hull2_into, polygon_area};
 use super::{Decimation, DecimationStats, Settings, Step, StopReason, StopRule};
 use crate::base::vec::{lerp, norm};
-use crate::complex::CellComplex;
+use crate::complex::{Cell, CellComplex};
 use crate::geom::ClearanceField;
 use crate::ids::CellId;
 
@@ -177,8 +177,8 @@ fn mid(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 
 /// The best sample of a cell: (its clearance, as `ClearanceField::distance` returned it;
 /// the sample). The first of the highest, in [`cell_samples`]' order.
-fn best_sample(field: &ClearanceField, poly: &crate::geom::ConvexPolyhedron) -> (f64, [f64; 3]) {
-    let samples = cell_samples(poly);
+fn best_sample(field: &ClearanceField, cell: &Cell) -> (f64, [f64; 3]) {
+    let samples = cell_samples(cell);
     let (mut bv, mut bp) = (f64::NEG_INFINITY, samples[0]);
     // The first sample is the centroid; the others' queries are bounded by its clearance
     // plus the way from it (1-Lipschitz; the bound does not change the answer).
@@ -263,7 +263,7 @@ impl CellField {
             .with_min_len(256)
             .map(|c| {
                 if c.active() {
-                    best_sample(&field, &c.poly)
+                    best_sample(&field, c)
                 } else {
                     (0.0, [0.0; 3])
                 }
@@ -297,11 +297,11 @@ impl CellField {
 
 /// Samples of a convex cell: its centroid, and the midpoints from it to each vertex and
 /// each face centroid (the samples its peak is taken over).
-fn cell_samples(poly: &crate::geom::ConvexPolyhedron) -> Vec<[f64; 3]> {
-    let g = poly.centroid();
+fn cell_samples(cell: &Cell) -> Vec<[f64; 3]> {
+    let g = cell.centroid();
     let mut samples = vec![g];
-    samples.extend(poly.vertices().into_iter().map(|v| mid(g, v)));
-    samples.extend(poly.faces.iter().map(|f| mid(g, f.centroid())));
+    samples.extend(cell.vertices().into_iter().map(|v| mid(g, v)));
+    samples.extend(cell.faces().map(|f| mid(g, f.centroid())));
     samples
 }
 
@@ -316,10 +316,7 @@ impl CellField {
     pub fn refined_passage(&self, cx: &CellComplex, k: usize) -> f64 {
         let p = &cx.portals[k];
         let [a, b] = p.cells;
-        let (sa, sb) = (
-            cell_samples(&cx.cells[a.idx()].poly),
-            cell_samples(&cx.cells[b.idx()].poly),
-        );
+        let (sa, sb) = (cell_samples(&cx.cells[a.idx()]), cell_samples(&cx.cells[b.idx()]));
         let (ba, bb) = (self.best[a.idx()], self.best[b.idx()]);
         let (da, db) = (self.best_clearance[a.idx()], self.best_clearance[b.idx()]);
         let s0 = self.passage[k];
@@ -1069,12 +1066,7 @@ pub fn tunnel_labels(cx: &CellComplex, field: &CellField, part: &super::Partitio
         // Cells between the least and the largest minimum cut (a tie: a tunnel of uniform
         // section) join the group of the higher peak (then the larger volume, then the
         // lower id): not the group they came from, which the collapse order chose.
-        let volume = |g: u32| -> f64 {
-            members[g as usize]
-                .iter()
-                .map(|&c| cx.cells[c as usize].poly.volume())
-                .sum()
-        };
+        let volume = |g: u32| -> f64 { members[g as usize].iter().map(|&c| cx.cells[c as usize].volume()).sum() };
         let tie = match peak[i as usize].total_cmp(&peak[j as usize]) {
             Ordering::Greater => 0,
             Ordering::Less => 1,
@@ -1115,7 +1107,7 @@ fn section(cx: &CellComplex, c: &mut Comp, frame: &Frame) -> f64 {
         let pts: Vec<[f64; 3]> = c
             .members
             .iter()
-            .flat_map(|&m| cx.cells[m as usize].poly.vertices())
+            .flat_map(|&m| cx.cells[m as usize].vertices())
             .collect();
         Box::new(Hull3::new(&pts))
     });
@@ -1140,7 +1132,7 @@ fn sliced_section(cx: &CellComplex, c: &Comp, frame: &Frame, k: usize) -> f64 {
         .iter()
         .map(|&m| {
             let (mut lo, mut hi, mut nan) = (f64::INFINITY, f64::NEG_INFINITY, false);
-            for f in &cx.cells[m as usize].poly.faces {
+            for f in cx.cells[m as usize].faces() {
                 for v in &f.verts {
                     let h = height(frame, v);
                     lo = lo.min(h);
@@ -1166,7 +1158,7 @@ fn sliced_section(cx: &CellComplex, c: &Comp, frame: &Frame, k: usize) -> f64 {
             if !nan && (b - t < 0.0 || a - t >= 0.0) {
                 continue;
             }
-            sum += cut_area_with(&cx.cells[m as usize].poly, frame, t, &mut pts, &mut hull);
+            sum += cut_area_with(&cx.cells[m as usize], frame, t, &mut pts, &mut hull);
         }
         sum
     };
@@ -1192,21 +1184,15 @@ fn height(frame: &Frame, p: &[f64; 3]) -> f64 {
 /// The area of the cut of a convex polyhedron by the plane at height `t` above `frame`'s
 /// (0 when the plane misses it): the 2D hull of its edges' crossings.
 #[cfg(test)]
-fn cut_area(poly: &crate::geom::ConvexPolyhedron, frame: &Frame, t: f64) -> f64 {
-    cut_area_with(poly, frame, t, &mut Vec::new(), &mut Vec::new())
+fn cut_area(cell: &Cell, frame: &Frame, t: f64) -> f64 {
+    cut_area_with(cell, frame, t, &mut Vec::new(), &mut Vec::new())
 }
 
 /// [`cut_area`] with scratch buffers for the crossings and their hull (same value).
-fn cut_area_with(
-    poly: &crate::geom::ConvexPolyhedron,
-    frame: &Frame,
-    t: f64,
-    pts: &mut Vec<P2>,
-    hull: &mut Vec<P2>,
-) -> f64 {
+fn cut_area_with(cell: &Cell, frame: &Frame, t: f64, pts: &mut Vec<P2>, hull: &mut Vec<P2>) -> f64 {
     pts.clear();
     hull.clear();
-    for f in &poly.faces {
+    for f in cell.faces() {
         let n = f.verts.len();
         for j in 0..n {
             let (p, q) = (f.verts[j], f.verts[(j + 1) % n]);
@@ -1253,7 +1239,7 @@ fn run_inner(
         let k = &mut comps[id.idx()];
         k.alive = true;
         k.peak = field.value[id.idx()];
-        k.volume = c.poly.volume();
+        k.volume = c.volume();
         k.pieces = 1;
         k.label = labels.map_or(0, |(l, _)| l[id.idx()]);
         if sections {
@@ -1921,7 +1907,7 @@ mod tests {
         let mut value = vec![0.0; cx.cells.len()];
         let mut best = vec![[0.0; 3]; cx.cells.len()];
         for (id, c) in cx.active_cells() {
-            let samples = cell_samples(&c.poly);
+            let samples = cell_samples(c);
             let (mut bv, mut bp) = (f64::NEG_INFINITY, samples[0]);
             for x in samples {
                 let d = field.distance(x);
@@ -1967,10 +1953,7 @@ mod tests {
     fn reference_refined(f: &CellField, cx: &CellComplex, k: usize) -> f64 {
         let p = &cx.portals[k];
         let [a, b] = p.cells;
-        let (sa, sb) = (
-            cell_samples(&cx.cells[a.idx()].poly),
-            cell_samples(&cx.cells[b.idx()].poly),
-        );
+        let (sa, sb) = (cell_samples(&cx.cells[a.idx()]), cell_samples(&cx.cells[b.idx()]));
         let (ba, bb) = (f.best[a.idx()], f.best[b.idx()]);
         let leg = |best: [f64; 3], xs: &[[f64; 3]]| -> Vec<([f64; 3], f64)> {
             xs.iter().map(|&x| (x, segment_min(&f.field, best, x))).collect()
@@ -2262,7 +2245,7 @@ mod tests {
     fn reference_sliced(cx: &CellComplex, c: &Comp, frame: &Frame, k: usize) -> f64 {
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
         for &m in &c.members {
-            for f in &cx.cells[m as usize].poly.faces {
+            for f in cx.cells[m as usize].faces() {
                 for v in &f.verts {
                     let h = height(frame, v);
                     lo = lo.min(h);
@@ -2278,7 +2261,7 @@ mod tests {
                 let t = lo + (hi - lo) * (i as f64 + 0.5) / k as f64;
                 c.members
                     .iter()
-                    .map(|&m| cut_area(&cx.cells[m as usize].poly, frame, t))
+                    .map(|&m| cut_area(&cx.cells[m as usize], frame, t))
                     .sum::<f64>()
             })
             .fold(0.0, f64::max)
@@ -2301,7 +2284,7 @@ mod tests {
                     .into_iter()
                     .enumerate()
                 {
-                    let o = cx.cells[c.members[0] as usize].poly.centroid();
+                    let o = cx.cells[c.members[0] as usize].centroid();
                     let frame = Frame::new(crate::base::vec::normalize(&n), o).unwrap();
                     for k in [1, 5, 7] {
                         let (got, want) = (sliced_section(&cx, &c, &frame, k), reference_sliced(&cx, &c, &frame, k));
@@ -2322,7 +2305,11 @@ mod tests {
 
     #[test]
     fn cut_area_of_a_box_is_its_section_at_any_height_and_zero_outside() {
-        let b = ConvexPolyhedron::cuboid(&[0.0, 0.0, 0.0], &[4.0, 2.0, 1.0]);
+        let b = Cell::new(
+            ConvexPolyhedron::cuboid(&[0.0, 0.0, 0.0], &[4.0, 2.0, 1.0]),
+            None,
+            false,
+        );
         let along_x = Frame::new([1.0, 0.0, 0.0], [0.0; 3]).unwrap();
         for t in [0.5, 2.0, 3.9] {
             assert!((cut_area(&b, &along_x, t) - 2.0).abs() < 1e-12, "t = {t}");
@@ -2374,7 +2361,7 @@ mod tests {
         let s = crate::generate::scenes::two_rooms();
         let m = crate::model::from_soup("two rooms", s.vertices, s.polygons).unwrap();
         let cx = crate::pipeline::complex_of(&m).unwrap();
-        let x = |c: CellId| cx.cells[c.idx()].poly.centroid()[0];
+        let x = |c: CellId| cx.cells[c.idx()].centroid()[0];
         let area = |p: &super::super::Partition| p.portals(&cx).iter().map(|mp| mp.area).sum::<f64>();
         let field = CellField::new(&cx);
         let mut moves = 0;

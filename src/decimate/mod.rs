@@ -379,7 +379,7 @@ impl Partition {
                 }
                 MergedCell {
                     id: pieces[0],
-                    volume: pieces.iter().map(|p| cx.cells[p.idx()].poly.volume()).sum(),
+                    volume: pieces.iter().map(|p| cx.cells[p.idx()].volume()).sum(),
                     pieces,
                 }
             })
@@ -583,8 +583,8 @@ impl<'a, E: AreaEstimator> Engine<'a, E> {
             live.push(Some(Live {
                 name: id,
                 pieces: vec![id],
-                volume: c.poly.volume(),
-                shape: E::piece(&c.poly),
+                volume: c.volume(),
+                shape: E::piece(&c.poly()),
                 nbrs: DetMap::default(),
                 ver: 0,
             }));
@@ -1338,7 +1338,8 @@ mod tests {
                     let mut volumes = [0.0; 2];
                     for (i, id) in [st.a, st.b].into_iter().enumerate() {
                         let cell = &part.cells[part.cell_of(id).unwrap()];
-                        let polys: Vec<_> = cell.pieces.iter().map(|p| &cx.cells[p.idx()].poly).collect();
+                        let owned: Vec<_> = cell.pieces.iter().map(|p| cx.cells[p.idx()].poly()).collect();
+                        let polys: Vec<_> = owned.iter().map(|p| &**p).collect();
                         projected[i] = estimator::projected_area_direct(Estimator::Union, &polys, &frame);
                         volumes[i] = cell.volume.max(min_volume(&cx.tol));
                     }

@@ -69,6 +69,33 @@ pub fn min_volume(tol: &Tolerances) -> f64 {
     l * l * l
 }
 
+/// `(volume, centroid)` of a closed boundary given as face loops (outward, counter-clockwise
+/// seen from outside): sums over the tetrahedra joining a reference vertex (the first
+/// face's first vertex) to a fan triangulation of each face (valid for subdivided
+/// boundaries). One function for [`ConvexPolyhedron`] and for the implicit tetrahedra of
+/// the cell complex, so that both give the same bits for the same faces.
+pub fn moments_of<'a>(faces: impl Iterator<Item = &'a [P3]> + Clone) -> (f64, P3) {
+    let r = faces.clone().find_map(|f| f.first().copied()).unwrap_or([0.0; 3]);
+    let mut v6 = 0.0;
+    let mut m = [0.0; 3];
+    for v in faces {
+        if v.len() < 3 {
+            continue;
+        }
+        let a = sub(&v[0], &r);
+        let mut prev = sub(&v[1], &r);
+        for p in &v[2..] {
+            let cur = sub(p, &r);
+            let t = dot(&a, &cross(&prev, &cur));
+            v6 += t;
+            m = add(&m, &scale(&add(&a, &add(&prev, &cur)), t));
+            prev = cur;
+        }
+    }
+    let c = if v6 != 0.0 { add(&r, &scale(&m, 0.25 / v6)) } else { r };
+    (v6 / 6.0, c)
+}
+
 impl ConvexPolyhedron {
     /// From faces and tags (not checked; see [`check`](Self::check)).
     pub fn from_faces(faces: Vec<ConvexPolygon>, tags: Vec<u32>) -> Self {
@@ -105,36 +132,9 @@ impl ConvexPolyhedron {
         }
     }
 
-    fn reference(&self) -> P3 {
-        self.faces
-            .iter()
-            .find_map(|f| f.verts.first().copied())
-            .unwrap_or([0.0; 3])
-    }
-
-    /// `(volume, centroid)`: sums over the tetrahedra joining a reference vertex to a fan
-    /// triangulation of each face (valid for subdivided boundaries).
+    /// `(volume, centroid)`: see [`moments_of`].
     fn moments(&self) -> (f64, P3) {
-        let r = self.reference();
-        let mut v6 = 0.0;
-        let mut m = [0.0; 3];
-        for f in &self.faces {
-            let v = &f.verts;
-            if v.len() < 3 {
-                continue;
-            }
-            let a = sub(&v[0], &r);
-            let mut prev = sub(&v[1], &r);
-            for p in &v[2..] {
-                let cur = sub(p, &r);
-                let t = dot(&a, &cross(&prev, &cur));
-                v6 += t;
-                m = add(&m, &scale(&add(&a, &add(&prev, &cur)), t));
-                prev = cur;
-            }
-        }
-        let c = if v6 != 0.0 { add(&r, &scale(&m, 0.25 / v6)) } else { r };
-        (v6 / 6.0, c)
+        moments_of(self.faces.iter().map(|f| &f.verts[..]))
     }
 
     /// Volume (positive for outward-oriented faces).

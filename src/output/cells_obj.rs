@@ -27,6 +27,7 @@ use crate::decimate::{MergedCell, Partition};
 use crate::geom::ConvexPolygon;
 use crate::predicates::P3;
 use crate::visibility::merged::convex_portal;
+use std::borrow::Cow;
 use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -40,11 +41,11 @@ pub(super) fn boundary_faces<'a>(
     cx: &'a CellComplex,
     partition: &Partition,
     cell: &MergedCell,
-) -> Vec<&'a ConvexPolygon> {
+) -> Vec<Cow<'a, ConvexPolygon>> {
     let mut out = Vec::new();
     for &p in &cell.pieces {
-        let poly = &cx.cells[p.idx()].poly;
-        for (f, &tag) in poly.faces.iter().zip(&poly.tags) {
+        let cell = &cx.cells[p.idx()];
+        for (f, &tag) in cell.faces().zip(cell.tags()) {
             let cells = cx.patches.get(tag as usize).map(|pa| pa.cells);
             let inner = cells.is_some_and(|[c0, c1]| {
                 let other = if c0 == p { c1 } else { c0 };
@@ -120,10 +121,8 @@ pub fn cells_obj_text(cx: &CellComplex, partition: &Partition, header: &str, ori
     let mut mtl = String::from("# portalfind: one colour per cell, portals translucent\n");
     let mut next = 1;
     for (i, c) in partition.cells.iter().enumerate() {
-        let faces: Vec<&[P3]> = boundary_faces(cx, partition, c)
-            .into_iter()
-            .map(|f| &f.verts[..])
-            .collect();
+        let boundary = boundary_faces(cx, partition, c);
+        let faces: Vec<&[P3]> = boundary.iter().map(|f| &f.verts[..]).collect();
         let name = format!("cell_{}", c.id.0);
         object(&mut obj, &mut next, &format!("Cell_{}", c.id.0), &name, &faces, origin);
         let [r, g, b] = cell_colour(i);

@@ -166,10 +166,8 @@ pub fn cells_glb(ctx: &ExportContext<'_>) -> Result<Vec<u8>, OutputError> {
             "pbrMetallicRoughness": { "baseColorFactor": [r, g, bl, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0 },
             "doubleSided": true,
         }));
-        let faces: Vec<&[P3]> = boundary_faces(cx, partition, c)
-            .into_iter()
-            .map(|f| &f.verts[..])
-            .collect();
+        let boundary = boundary_faces(cx, partition, c);
+        let faces: Vec<&[P3]> = boundary.iter().map(|f| &f.verts[..]).collect();
         let mut children = Vec::new();
         if let Some(m) = b.mesh(&format!("Cell_{}", c.id.0), &faces, i) {
             nodes.push(json!({ "name": format!("Cell_{}", c.id.0), "mesh": m }));

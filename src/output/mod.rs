@@ -256,7 +256,7 @@ pub fn result_doc(
                 .pieces
                 .iter()
                 .map(|&p| {
-                    let poly = &cx.cells[p.idx()].poly;
+                    let poly = &cx.cells[p.idx()].poly();
                     let mut planes: Vec<[f64; 4]> = Vec::new();
                     for (f, pl) in poly.faces.iter().zip(poly.planes()) {
                         // Tiny faces have unreliable planes (and `contains` ignores them).

@@ -213,7 +213,7 @@ pub fn viewer_json(
     for (id, c) in cx.active_cells() {
         dense.insert(id, ids.len() as u32);
         ids.push(id.0);
-        volumes.push(c.poly.volume());
+        volumes.push(c.volume());
     }
     let side = |c: CellId| dense.get(&c).map_or(-1, |&i| i as i32);
     // Patches bordering an initial cell, each once.
@@ -221,7 +221,7 @@ pub fn viewer_json(
     let mut patch_sides: Vec<i32> = Vec::new();
     let mut seen = vec![false; cx.patches.len()];
     for (_, c) in cx.active_cells() {
-        for &tag in &c.poly.tags {
+        for &tag in c.tags() {
             let t = tag as usize;
             if t >= cx.patches.len() || seen[t] {
                 continue;

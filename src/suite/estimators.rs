@@ -78,8 +78,8 @@ pub fn estimator_errors(cases: &[&SuiteCase], pairs: usize, seed: u64) -> Result
             };
             for c in mp.cells {
                 let Some(i) = part.cell_of(c) else { continue };
-                let pieces: Vec<&ConvexPolyhedron> =
-                    part.cells[i].pieces.iter().map(|&p| &cx.cells[p.idx()].poly).collect();
+                let owned: Vec<_> = part.cells[i].pieces.iter().map(|&p| cx.cells[p.idx()].poly()).collect();
+                let pieces: Vec<&ConvexPolyhedron> = owned.iter().map(|p| &**p).collect();
                 let mut areas = Vec::new();
                 for (k, e) in Estimator::ALL.iter().enumerate() {
                     let t = Instant::now();

@@ -240,7 +240,7 @@ pub fn score(cx: &CellComplex, partition: &Partition, truth: &SuiteTruth, opts: 
         })
         .collect();
     // Volume sampling.
-    let active: Vec<(CellId, f64)> = cx.active_cells().map(|(id, c)| (id, c.poly.volume())).collect();
+    let active: Vec<(CellId, f64)> = cx.active_cells().map(|(id, c)| (id, c.volume())).collect();
     let active_volume: f64 = active.iter().map(|a| a.1).sum();
     let mut vol: HashMap<(usize, usize), f64> = HashMap::new();
     let mut cell_room = vec![0.0; nf];
@@ -254,7 +254,7 @@ pub fn score(cx: &CellComplex, partition: &Partition, truth: &SuiteTruth, opts: 
         }
         let n = ((opts.samples as f64 * v / active_volume).round() as usize).max(opts.min_per_cell.max(1));
         let mut rng = Rng::new(opts.seed ^ (id.0 as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15));
-        let pts = sample_polyhedron(&cx.cells[id.idx()].poly.faces, n, &mut rng);
+        let pts = sample_polyhedron(&cx.cells[id.idx()].poly().faces, n, &mut rng);
         if pts.is_empty() {
             continue;
         }

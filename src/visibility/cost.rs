@@ -86,7 +86,7 @@ impl CellPolygons {
         }
         for (c, cell) in cx.active_cells() {
             let Some(i) = cell_of(c) else { continue };
-            for &t in &cell.poly.tags {
+            for &t in cell.tags() {
                 let p = &cx.patches[t as usize];
                 let side = if p.cells[0] == c { 0 } else { 1 };
                 for o in &p.occluders {

@@ -199,7 +199,7 @@ pub fn check(
     let (mut vol, mut est) = (0.0, 0.0);
     let mut ratios = Vec::new();
     for (c, ps) in pieces.iter().enumerate() {
-        let vols: Vec<f64> = ps.iter().map(|p| cx.cells[p.idx()].poly.volume()).collect();
+        let vols: Vec<f64> = ps.iter().map(|p| cx.cells[p.idx()].volume()).collect();
         let total: f64 = vols.iter().sum();
         let (mut hit_polys, mut hit_tris) = (0usize, 0u64);
         for _ in 0..settings.points_per_cell {
@@ -213,7 +213,7 @@ pub fn check(
                 x -= vols[k];
                 k += 1;
             }
-            let o = point_in(&cx.cells[ps[k].idx()].poly, &mut rng);
+            let o = point_in(&cx.cells[ps[k].idx()].poly(), &mut rng);
             rep.points += 1;
             for _ in 0..settings.rays_per_point {
                 let d = direction(&mut rng);

@@ -491,9 +491,9 @@ pub fn camera_path(scene: &Scene) -> Vec<PathPoint> {
             adj[b.idx()].push((a.0, c, area));
         }
     }
-    let centroid = |c: u32| cx.cells[c as usize].poly.centroid();
+    let centroid = |c: u32| cx.cells[c as usize].centroid();
     // Largest cell first.
-    let vol = |i: usize| -> f64 { scene.pieces[i].iter().map(|c| cx.cells[c.idx()].poly.volume()).sum() };
+    let vol = |i: usize| -> f64 { scene.pieces[i].iter().map(|c| cx.cells[c.idx()].volume()).sum() };
     let start = (0..n)
         .max_by(|&a, &b| vol(a).total_cmp(&vol(b)).then(b.cmp(&a)))
         .unwrap_or(0);

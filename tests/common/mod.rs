@@ -9,6 +9,6 @@ use portalfind::decimate::Partition;
 /// cell containing it, mapped through the partition.
 pub fn locate(cx: &CellComplex, part: &Partition, p: &[f64; 3]) -> Option<usize> {
     cx.active_cells()
-        .find(|(_, c)| c.poly.contains(p, &cx.tol))
+        .find(|(_, c)| c.contains(p, &cx.tol))
         .and_then(|(id, _)| part.cell_of(id))
 }

@@ -148,7 +148,7 @@ fn truth_eval(p: &mut Run, truth: &GroundTruth, diag: f64, full: Option<&Decimat
         .collect();
     let mut volumes = vec![0.0; p.cx.cells.len()];
     for (id, c) in p.cx.active_cells() {
-        volumes[id.idx()] = c.poly.volume();
+        volumes[id.idx()] = c.volume();
     }
     let room_names: Vec<String> = truth.rooms.iter().map(|r| r.name.clone()).collect();
     let (weight_jump, room_merges) = full_run_analysis(

@@ -36,7 +36,7 @@ pub fn locate_in_complex(cx: &CellComplex, pts: &[P3]) -> Vec<Option<CellId>> {
     let boxes: Vec<(CellId, P3, P3)> = cx
         .active_cells()
         .map(|(id, c)| {
-            let (lo, hi) = c.poly.aabb();
+            let (lo, hi) = c.aabb();
             (id, lo, hi)
         })
         .collect();
@@ -45,7 +45,7 @@ pub fn locate_in_complex(cx: &CellComplex, pts: &[P3]) -> Vec<Option<CellId>> {
             boxes
                 .iter()
                 .filter(|(_, lo, hi)| (0..3).all(|k| p[k] >= lo[k] - slack && p[k] <= hi[k] + slack))
-                .find(|(id, _, _)| cx.cells[id.idx()].poly.contains(p, &cx.tol))
+                .find(|(id, _, _)| cx.cells[id.idx()].contains(p, &cx.tol))
                 .map(|(id, _, _)| *id)
         })
         .collect()
