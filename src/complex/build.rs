@@ -1592,7 +1592,56 @@ impl Placer {
 
 #[cfg(test)]
 mod tests {
+    use super::super::Shape;
     use super::*;
+
+    /// Uncut tetrahedra stay implicit, and everything read from one has the bits of its
+    /// materialised polyhedron; `validate` checks their faces against their patches and
+    /// refuses one whose face loop starts elsewhere.
+    #[test]
+    fn implicit_tetrahedra_read_as_their_polyhedra_and_are_validated() {
+        for soup in [
+            crate::generate::four_rooms::four_rooms(),
+            crate::generate::scenes::two_rooms(),
+        ] {
+            let m = crate::model::from_soup("t", soup.vertices, soup.polygons).expect("model");
+            let mut cx = crate::pipeline::complex_of_unchecked(&m).expect("complex");
+            cx.validate(&m).expect("valid");
+            let implicit: Vec<usize> = (0..cx.cells.len())
+                .filter(|&i| cx.cells[i].alive && cx.cells[i].tet_shape().is_some())
+                .collect();
+            let explicit = cx.cells.iter().filter(|c| c.alive && c.tet_shape().is_none()).count();
+            assert!(
+                implicit.len() > 10 * explicit.max(1),
+                "{} implicit, {explicit} explicit",
+                implicit.len()
+            );
+            for &i in &implicit {
+                let c = &cx.cells[i];
+                let p = c.poly();
+                assert_eq!(c.volume().to_bits(), p.volume().to_bits());
+                assert_eq!(c.centroid().map(f64::to_bits), p.centroid().map(f64::to_bits));
+                assert_eq!(c.surface_area().to_bits(), p.surface_area().to_bits());
+                assert_eq!(c.aabb(), p.aabb());
+                assert_eq!(c.vertices(), p.vertices());
+                assert_eq!(c.tags(), &p.tags[..]);
+                assert!(c.faces().zip(&p.faces).all(|(a, b)| *a == *b));
+                // Materialising changes nothing but the form.
+                let mut d = c.clone();
+                assert_eq!(*d.poly_mut(), *p);
+                assert!(d.tet_shape().is_none());
+            }
+            let i = implicit[implicit.len() / 2];
+            if let Shape::Tet(t) = &mut cx.cells[i].shape {
+                t.start[0] = (t.start[0] + 1) % 3;
+            }
+            let e = cx.validate(&m).unwrap_err().to_string();
+            assert!(
+                e.contains("implicit tetrahedron's face is not its patch's polygon"),
+                "{e}"
+            );
+        }
+    }
 
     #[test]
     fn canonical_cycle_ignores_face_start_and_vertex_numbering() {

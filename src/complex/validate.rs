@@ -195,6 +195,26 @@ impl CellComplex {
                 });
             }
         }
+        // An implicit tetrahedron's faces are its patches' polygons, outward, vertex for
+        // vertex (a patch that was subdivided must have made the cell explicit).
+        if let Some(shape) = c.tet_shape() {
+            for (k, &t) in shape.tags.iter().enumerate() {
+                let p = &self.patches[t as usize];
+                let face = ConvexPolygon::from_slice(&shape.face(k));
+                let own = if p.cells[0] == CellId(i as u32) {
+                    p.polygon.clone()
+                } else {
+                    p.polygon.reversed()
+                };
+                if face != own {
+                    return Some(ComplexError::Topology {
+                        cell: i as u32,
+                        patch: t,
+                        why: "an implicit tetrahedron's face is not its patch's polygon",
+                    });
+                }
+            }
+        }
         None
     }
 
