@@ -1,7 +1,7 @@
 //! Stages 5–6: portal graph (patch minus occluders, joins across flat cells) and exterior
 //! flood fill.
 
-use super::{CellComplex, HULL, Leak, PatchId, Portal};
+use super::{CellComplex, HULL, Leak, PatchId, Pieces, Portal};
 use crate::geom::ConvexPolygon;
 use crate::ids::CellId;
 use rayon::prelude::*;
@@ -59,7 +59,7 @@ fn crack_links(by_pair: &HashMap<(CellId, CellId), usize>, dropped: Vec<Link>) -
         }
         let p = cracks.entry(key).or_insert_with(|| Portal {
             cells: [key.0, key.1],
-            pieces: Vec::new(),
+            pieces: Pieces::new(),
             area: 0.0,
         });
         p.area += q.area();
@@ -168,12 +168,11 @@ impl CellComplex {
             } else {
                 ((b, a), pieces.iter().map(|p| p.reversed()).collect())
             };
-            let np = pieces.len();
             let k = *by_pair.entry(key).or_insert_with(|| {
                 portals.push(Portal {
                     cells: [key.0, key.1],
-                    // Most pairs meet over one patch: no growth slack (see `shrink_storage`).
-                    pieces: Vec::with_capacity(np),
+                    // Most pairs meet over one patch: held inline ([`Pieces`]).
+                    pieces: Pieces::new(),
                     area: 0.0,
                 });
                 portals.len() - 1

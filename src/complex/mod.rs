@@ -329,9 +329,140 @@ pub struct Portal {
     pub cells: [CellId; 2],
     /// Convex pieces, each oriented with its normal pointing from `cells[0]` to `cells[1]`.
     #[serde(skip)]
-    pub pieces: Vec<ConvexPolygon>,
+    pub pieces: Pieces,
     /// Sum of the pieces' areas.
     pub area: f64,
+}
+
+/// A portal's pieces: one held inline (most cell pairs meet over one patch: a portal of
+/// a large model is then one 96-byte value with no heap block, against 40 bytes plus a
+/// 96-byte block for a `Vec` of one), more in a `Vec`. Derefs to `[ConvexPolygon]`;
+/// equality and `Debug` are those of the slice, so no value depends on the form.
+#[derive(Clone, Default)]
+pub struct Pieces(PiecesRepr);
+
+#[derive(Clone)]
+enum PiecesRepr {
+    One(ConvexPolygon),
+    Many(Vec<ConvexPolygon>),
+}
+
+impl Default for PiecesRepr {
+    fn default() -> Self {
+        PiecesRepr::Many(Vec::new())
+    }
+}
+
+impl Pieces {
+    /// No pieces.
+    pub const fn new() -> Self {
+        Pieces(PiecesRepr::Many(Vec::new()))
+    }
+
+    /// Appends a piece.
+    pub fn push(&mut self, p: ConvexPolygon) {
+        match &mut self.0 {
+            PiecesRepr::Many(v) if v.is_empty() && v.capacity() == 0 => self.0 = PiecesRepr::One(p),
+            PiecesRepr::Many(v) => v.push(p),
+            PiecesRepr::One(_) => {
+                let PiecesRepr::One(first) = std::mem::take(&mut self.0) else {
+                    unreachable!("matched One")
+                };
+                self.0 = PiecesRepr::Many(vec![first, p]);
+            }
+        }
+    }
+
+    /// The pieces as a `Vec`.
+    pub fn into_vec(self) -> Vec<ConvexPolygon> {
+        match self.0 {
+            PiecesRepr::One(p) => vec![p],
+            PiecesRepr::Many(v) => v,
+        }
+    }
+
+    /// Drops growth slack (one piece moves inline).
+    pub fn shrink_to_fit(&mut self) {
+        if let PiecesRepr::Many(v) = &mut self.0 {
+            if v.len() == 1 {
+                let p = v.pop().expect("one piece");
+                self.0 = PiecesRepr::One(p);
+            } else {
+                v.shrink_to_fit();
+            }
+        }
+    }
+}
+
+impl std::ops::Deref for Pieces {
+    type Target = [ConvexPolygon];
+    fn deref(&self) -> &[ConvexPolygon] {
+        match &self.0 {
+            PiecesRepr::One(p) => std::slice::from_ref(p),
+            PiecesRepr::Many(v) => v,
+        }
+    }
+}
+
+impl std::ops::DerefMut for Pieces {
+    fn deref_mut(&mut self) -> &mut [ConvexPolygon] {
+        match &mut self.0 {
+            PiecesRepr::One(p) => std::slice::from_mut(p),
+            PiecesRepr::Many(v) => v,
+        }
+    }
+}
+
+impl PartialEq for Pieces {
+    fn eq(&self, other: &Self) -> bool {
+        **self == **other
+    }
+}
+
+impl std::fmt::Debug for Pieces {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        (**self).fmt(f)
+    }
+}
+
+impl From<Vec<ConvexPolygon>> for Pieces {
+    fn from(mut v: Vec<ConvexPolygon>) -> Self {
+        if v.len() == 1 {
+            Pieces(PiecesRepr::One(v.pop().expect("one piece")))
+        } else {
+            Pieces(PiecesRepr::Many(v))
+        }
+    }
+}
+
+impl FromIterator<ConvexPolygon> for Pieces {
+    fn from_iter<I: IntoIterator<Item = ConvexPolygon>>(iter: I) -> Self {
+        iter.into_iter().collect::<Vec<_>>().into()
+    }
+}
+
+impl Extend<ConvexPolygon> for Pieces {
+    fn extend<I: IntoIterator<Item = ConvexPolygon>>(&mut self, iter: I) {
+        for p in iter {
+            self.push(p);
+        }
+    }
+}
+
+impl IntoIterator for Pieces {
+    type Item = ConvexPolygon;
+    type IntoIter = std::vec::IntoIter<ConvexPolygon>;
+    fn into_iter(self) -> Self::IntoIter {
+        self.into_vec().into_iter()
+    }
+}
+
+impl<'a> IntoIterator for &'a Pieces {
+    type Item = &'a ConvexPolygon;
+    type IntoIter = std::slice::Iter<'a, ConvexPolygon>;
+    fn into_iter(self) -> Self::IntoIter {
+        self.iter()
+    }
 }
 
 /// A leak: a region that faces occluders but reaches the convex hull (qbsp's sense).
@@ -635,5 +766,40 @@ impl CellComplex {
     pub fn is_thin(&self, c: CellId) -> bool {
         let cell = &self.cells[c.idx()];
         2.0 * cell.volume() < self.tol.sliver_width() * cell.surface_area()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The compact forms are what they claim: an implicit tetrahedron's cell and a
+    /// one-piece portal hold no heap block, in the sizes the docs give.
+    #[test]
+    fn cells_and_portals_are_compact() {
+        assert!(std::mem::size_of::<Cell>() <= 144, "{}", std::mem::size_of::<Cell>());
+        assert_eq!(std::mem::size_of::<Pieces>(), std::mem::size_of::<ConvexPolygon>());
+        assert!(std::mem::size_of::<Portal>() <= 96, "{}", std::mem::size_of::<Portal>());
+    }
+
+    /// `Pieces` reads as the slice of what was pushed, whatever its form.
+    #[test]
+    fn pieces_hold_what_was_pushed_in_order() {
+        let tri = |x: f64| ConvexPolygon::from_slice(&[[x, 0.0, 0.0], [x, 1.0, 0.0], [x, 0.0, 1.0]]);
+        let mut p = Pieces::new();
+        assert!(p.is_empty());
+        p.push(tri(0.0));
+        assert_eq!(&*p, &[tri(0.0)][..]);
+        p.push(tri(1.0));
+        p.extend([tri(2.0)]);
+        assert_eq!(&*p, &[tri(0.0), tri(1.0), tri(2.0)][..]);
+        assert_eq!(p.clone().into_vec(), vec![tri(0.0), tri(1.0), tri(2.0)]);
+        let one: Pieces = vec![tri(3.0)].into();
+        let mut many = Pieces::from(vec![tri(3.0), tri(4.0)]);
+        many.shrink_to_fit();
+        assert_eq!(one.len(), 1);
+        assert_eq!(one, Pieces::from_iter([tri(3.0)]));
+        assert_ne!(one, many);
+        assert_eq!(many.iter().count(), 2);
     }
 }
