@@ -82,6 +82,7 @@
 
 use std::collections::HashMap;
 use std::time::Instant;
+use thin_vec::ThinVec;
 
 use serde::Serialize;
 
@@ -295,7 +296,7 @@ pub fn build_complex_with(model: &Model, settings: &BspSettings) -> (CellComplex
         .map(|f| Patch {
             polygon: f.clone(),
             cells: [CellId(0), HULL],
-            occluders: Vec::new(),
+            occluders: ThinVec::new(),
             alive: true,
         })
         .collect();

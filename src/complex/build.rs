@@ -11,6 +11,7 @@ use crate::predicates::orient3d;
 use rayon::prelude::*;
 use std::collections::{HashMap, HashSet, VecDeque};
 use std::time::Instant;
+use thin_vec::ThinVec;
 
 impl CellComplex {
     /// Builds the complex of `model` over its tetrahedralization `tet` (which must be of
@@ -151,7 +152,7 @@ impl CellComplex {
                 Patch {
                     polygon: poly,
                     cells: [CellId(t as u32), other],
-                    occluders: Vec::new(),
+                    occluders: ThinVec::new(),
                     alive: true,
                 }
             })
@@ -1198,7 +1199,7 @@ impl CellComplex {
         self.patches.push(Patch {
             polygon: s.section.clone(),
             cells: [bid, fid],
-            occluders,
+            occluders: occluders.into(),
             alive: true,
         });
         let mut front = s.front;
@@ -1243,11 +1244,11 @@ impl CellComplex {
                     cells_b[side] = bid;
                     self.patches[t].cells[side] = fid;
                     self.patches[t].polygon = pf;
-                    self.patches[t].occluders = occ_f;
+                    self.patches[t].occluders = occ_f.into();
                     self.patches.push(Patch {
                         polygon: pb,
                         cells: cells_b,
-                        occluders: occ_b,
+                        occluders: occ_b.into(),
                         alive: true,
                     });
                     // The neighbour across subdivides its face the same way (planned).

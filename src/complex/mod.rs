@@ -72,6 +72,7 @@ use crate::ids::{CellId, PolygonId, TetId};
 use crate::predicates::P3;
 use crate::tolerances::Tolerances;
 use serde::Serialize;
+use thin_vec::ThinVec;
 
 /// The outside of the convex hull, as the second cell of a hull patch.
 pub const HULL: CellId = CellId(u32::MAX);
@@ -97,8 +98,10 @@ pub struct Patch {
     pub polygon: ConvexPolygon,
     /// The two cells; `cells[1]` is [`HULL`] on the convex hull.
     pub cells: [CellId; 2],
-    /// Occluders lying on this patch (from either side).
-    pub occluders: Vec<Occluder>,
+    /// Occluders lying on this patch (from either side). A [`ThinVec`]: 8 bytes in the
+    /// patch (its length and capacity live in the heap block), since most patches of a
+    /// large model carry none (a `Vec` would be 24).
+    pub occluders: ThinVec<Occluder>,
     /// False once the patch was replaced (split in two).
     pub alive: bool,
 }
@@ -675,7 +678,7 @@ impl CellComplex {
                 patches += 1;
             }
             if dead {
-                p.occluders = Vec::new();
+                p.occluders = ThinVec::new();
             }
         }
         self.cells.shrink_to_fit();
@@ -774,12 +777,14 @@ mod tests {
     use super::*;
 
     /// The compact forms are what they claim: an implicit tetrahedron's cell and a
-    /// one-piece portal hold no heap block, in the sizes the docs give.
+    /// one-piece portal hold no heap block, and a patch's occluder list is one pointer,
+    /// in the sizes the docs give.
     #[test]
     fn cells_and_portals_are_compact() {
         assert!(std::mem::size_of::<Cell>() <= 144, "{}", std::mem::size_of::<Cell>());
         assert_eq!(std::mem::size_of::<Pieces>(), std::mem::size_of::<ConvexPolygon>());
         assert!(std::mem::size_of::<Portal>() <= 96, "{}", std::mem::size_of::<Portal>());
+        assert!(std::mem::size_of::<Patch>() <= 104, "{}", std::mem::size_of::<Patch>());
     }
 
     /// `Pieces` reads as the slice of what was pushed, whatever its form.
