@@ -738,19 +738,20 @@ impl CellComplex {
         hi: [f64; 3],
         slack: f64,
     ) -> bool {
-        let cell = &self.cells[c.idx()].poly();
+        let cell = &self.cells[c.idx()];
         let (clo, chi) = cell.aabb();
         if (0..3).any(|a| clo[a] > hi[a] + slack || chi[a] < lo[a] - slack) {
             return false;
         }
-        let vs = cell.vertices();
+        let faces = cell.faces();
+        let vs = crate::geom::vertices_of(&faces);
         let un = plane.normalized();
         let ds: Vec<f64> = vs.iter().map(|v| un.eval(v)).collect();
         if ds.iter().all(|&d| d > slack) || ds.iter().all(|&d| d < -slack) {
             return false;
         }
         // Separated by a face plane of the cell?
-        for f in cell.planes() {
+        for f in faces.iter().map(|f| f.plane()) {
             let f = f.normalized();
             if polygon.verts.iter().all(|v| f.eval(v) > slack) {
                 return false;
@@ -817,7 +818,7 @@ impl CellComplex {
         // leaks through it (issue 16, noise 1e-5 of the diagonal).
         let sliver = self.tol.sliver_width();
         let mut thin: Option<bool> = None;
-        for (fi, f) in cell.poly().faces.iter().enumerate() {
+        for (fi, f) in cell.faces().iter().enumerate() {
             if !f.verts.iter().all(|v| un.eval(v).abs() <= eps) {
                 if !near || !f.verts.iter().all(|v| un.eval(v).abs() <= sliver) {
                     continue;
@@ -1047,7 +1048,7 @@ impl CellComplex {
             let mut next_bad: Vec<CellId> = Vec::new();
             for &o in &touched {
                 let cell = &self.cells[o.idx()];
-                if cell.alive && !cell.flat && cell.poly().check(&self.tol).is_err() {
+                if cell.alive && !cell.flat && cell.check(&self.tol).is_err() {
                     next_bad.push(o);
                 }
             }
@@ -1626,7 +1627,8 @@ mod tests {
                 assert_eq!(c.aabb(), p.aabb());
                 assert_eq!(c.vertices(), p.vertices());
                 assert_eq!(c.tags(), &p.tags[..]);
-                assert!(c.faces().zip(&p.faces).all(|(a, b)| *a == *b));
+                assert!(c.faces().iter().zip(&p.faces).all(|(a, b)| a == b));
+                assert!(c.faces_cow().zip(&p.faces).all(|(a, b)| *a == *b));
                 // Materialising changes nothing but the form.
                 let mut d = c.clone();
                 assert_eq!(*d.poly_mut(), *p);

@@ -90,12 +90,13 @@ impl CellComplex {
         if cell.flat {
             return true;
         }
-        let Some(big) = cell.faces().max_by(|a, b| a.area().total_cmp(&b.area())) else {
+        let faces = cell.faces();
+        let Some(big) = faces.iter().max_by(|a, b| a.area().total_cmp(&b.area())) else {
             return false;
         };
         let pl = big.plane().normalized();
         let w = self.tol.sliver_width();
-        cell.faces().all(|f| f.verts.iter().all(|v| pl.eval(v).abs() < w))
+        faces.iter().all(|f| f.verts.iter().all(|v| pl.eval(v).abs() < w))
     }
 
     /// Uncovered pieces of a patch: its polygon minus all occluders on it (either side).
@@ -238,6 +239,7 @@ impl CellComplex {
         for (f, cell) in self.alive_cells().filter(|(c, _)| membrane[c.idx()]) {
             let Some(n) = cell
                 .faces()
+                .iter()
                 .max_by(|a, b| a.area().total_cmp(&b.area()))
                 .map(|g| g.normal())
             else {
@@ -260,6 +262,7 @@ impl CellComplex {
     fn flat_faces(&self, f: CellId, n: [f64; 3], up: bool) -> Vec<(u32, usize)> {
         let cell = &self.cells[f.idx()];
         cell.faces()
+            .iter()
             .enumerate()
             .filter(|(_, g)| {
                 let m = g.normal();

@@ -67,7 +67,7 @@ pub use validate::{ComplexError, ComplexValidation};
 use std::borrow::Cow;
 
 use crate::delaunay::FACE_SLOTS;
-use crate::geom::{ConvexPolygon, ConvexPolyhedron, Plane, moments_of};
+use crate::geom::{ConvexPolygon, ConvexPolyhedron, Plane, check_faces, contains_of, moments_of, vertices_of};
 use crate::ids::{CellId, PolygonId, TetId};
 use crate::predicates::P3;
 use crate::tolerances::Tolerances;
@@ -161,9 +161,17 @@ pub struct TetShape {
 impl TetShape {
     /// Face `i`'s loop.
     pub fn face(&self, i: usize) -> [P3; 3] {
-        let s = FACE_SLOTS[i];
-        let r = self.start[i] as usize;
-        std::array::from_fn(|k| self.corners[s[(r + k) % 3]])
+        let [a, b, c] = FACE_SLOTS[i].map(|s| self.corners[s]);
+        match self.start[i] {
+            0 => [a, b, c],
+            1 => [b, c, a],
+            _ => [c, a, b],
+        }
+    }
+
+    /// The four faces as inline triangles (no heap block).
+    pub fn faces(&self) -> [ConvexPolygon; 4] {
+        std::array::from_fn(|i| ConvexPolygon::from_slice(&self.face(i)))
     }
 
     /// The materialised polyhedron (faces in order `0..4`, tags `tags`).
@@ -245,8 +253,17 @@ impl Cell {
         }
     }
 
-    /// The faces, in the order of [`Cell::tags`] (borrowed, or inline triangles).
-    pub fn faces(&self) -> impl Iterator<Item = Cow<'_, ConvexPolygon>> + '_ {
+    /// The faces, in the order of [`Cell::tags`]: borrowed, or an implicit tetrahedron's
+    /// four inline triangles built once on the stack (no heap block).
+    pub fn faces(&self) -> FaceList<'_> {
+        match &self.shape {
+            Shape::Tet(t) => FaceList::Tet(t.faces()),
+            Shape::Poly(p) => FaceList::Poly(&p.faces),
+        }
+    }
+
+    /// The faces one by one, borrowed or owned (for callers that keep them).
+    pub fn faces_cow(&self) -> impl Iterator<Item = Cow<'_, ConvexPolygon>> + '_ {
         let (tet, poly) = match &self.shape {
             Shape::Tet(t) => (Some(t), &[][..]),
             Shape::Poly(p) => (None, &p.faces[..]),
@@ -285,7 +302,7 @@ impl Cell {
 
     /// Total boundary area (the bits of [`ConvexPolyhedron::surface_area`]).
     pub fn surface_area(&self) -> f64 {
-        self.faces().map(|f| f.area()).sum()
+        self.faces().iter().map(|f| f.area()).sum()
     }
 
     /// Axis-aligned bounding box (as [`ConvexPolyhedron::aabb`]).
@@ -308,20 +325,44 @@ impl Cell {
 
     /// Whether `p` lies in the cell (as [`ConvexPolyhedron::contains`]).
     pub fn contains(&self, p: &P3, tol: &Tolerances) -> bool {
+        contains_of(&self.faces(), p, tol)
+    }
+
+    /// [`ConvexPolyhedron::check`] of the geometry (an implicit tetrahedron is checked
+    /// on its stack-built faces, the same tests and messages).
+    pub fn check(&self, tol: &Tolerances) -> Result<(), String> {
         match &self.shape {
-            Shape::Tet(_) => self.poly().contains(p, tol),
-            Shape::Poly(q) => q.contains(p, tol),
+            Shape::Tet(t) => check_faces(&t.faces(), 4, tol),
+            Shape::Poly(p) => p.check(tol),
         }
     }
 
     /// Distinct vertices, in order of first appearance (as [`ConvexPolyhedron::vertices`]).
     pub fn vertices(&self) -> Vec<P3> {
-        self.poly().vertices()
+        vertices_of(&self.faces())
     }
 
     /// Frees the geometry (no faces, no tags); ids and flags stay.
     pub(crate) fn release(&mut self) {
         self.shape = Shape::Poly(ConvexPolyhedron::from_faces(Vec::new(), Vec::new()));
+    }
+}
+
+/// A cell's faces ([`Cell::faces`]): derefs to `[ConvexPolygon]`.
+pub enum FaceList<'a> {
+    /// An implicit tetrahedron's faces, built on the stack.
+    Tet([ConvexPolygon; 4]),
+    /// A polyhedron's faces.
+    Poly(&'a [ConvexPolygon]),
+}
+
+impl std::ops::Deref for FaceList<'_> {
+    type Target = [ConvexPolygon];
+    fn deref(&self) -> &[ConvexPolygon] {
+        match self {
+            FaceList::Tet(f) => f,
+            FaceList::Poly(f) => f,
+        }
     }
 }
 

@@ -158,7 +158,7 @@ impl CellComplex {
         // Flat cells are exact, positively oriented tetrahedra (checked by the
         // tetrahedralization's validation) too thin for a floating-point check.
         if !c.flat
-            && let Err(why) = c.poly().check(&self.tol)
+            && let Err(why) = c.check(&self.tol)
         {
             return Some(ComplexError::BadCell { cell: i as u32, why });
         }

@@ -301,7 +301,7 @@ fn cell_samples(cell: &Cell) -> Vec<[f64; 3]> {
     let g = cell.centroid();
     let mut samples = vec![g];
     samples.extend(cell.vertices().into_iter().map(|v| mid(g, v)));
-    samples.extend(cell.faces().map(|f| mid(g, f.centroid())));
+    samples.extend(cell.faces().iter().map(|f| mid(g, f.centroid())));
     samples
 }
 
@@ -1132,7 +1132,7 @@ fn sliced_section(cx: &CellComplex, c: &Comp, frame: &Frame, k: usize) -> f64 {
         .iter()
         .map(|&m| {
             let (mut lo, mut hi, mut nan) = (f64::INFINITY, f64::NEG_INFINITY, false);
-            for f in cx.cells[m as usize].faces() {
+            for f in cx.cells[m as usize].faces().iter() {
                 for v in &f.verts {
                     let h = height(frame, v);
                     lo = lo.min(h);
@@ -1192,7 +1192,7 @@ fn cut_area(cell: &Cell, frame: &Frame, t: f64) -> f64 {
 fn cut_area_with(cell: &Cell, frame: &Frame, t: f64, pts: &mut Vec<P2>, hull: &mut Vec<P2>) -> f64 {
     pts.clear();
     hull.clear();
-    for f in cell.faces() {
+    for f in cell.faces().iter() {
         let n = f.verts.len();
         for j in 0..n {
             let (p, q) = (f.verts[j], f.verts[(j + 1) % n]);
@@ -2245,7 +2245,7 @@ mod tests {
     fn reference_sliced(cx: &CellComplex, c: &Comp, frame: &Frame, k: usize) -> f64 {
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
         for &m in &c.members {
-            for f in cx.cells[m as usize].faces() {
+            for f in cx.cells[m as usize].faces().iter() {
                 for v in &f.verts {
                     let h = height(frame, v);
                     lo = lo.min(h);

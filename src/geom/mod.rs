@@ -79,4 +79,6 @@ pub(crate) mod vec;
 pub use clearance::ClearanceField;
 pub use plane::{Classification, Plane, Side};
 pub use polygon::{ConvexPolygon, INLINE_VERTS, PolygonSplit, Subtraction, Verts};
-pub use polyhedron::{ConvexPolyhedron, Cut, PolyhedronSplit, min_volume, moments_of};
+pub use polyhedron::{
+    ConvexPolyhedron, Cut, PolyhedronSplit, check_faces, contains_of, min_volume, moments_of, vertices_of,
+};

@@ -45,7 +45,7 @@ pub(super) fn boundary_faces<'a>(
     let mut out = Vec::new();
     for &p in &cell.pieces {
         let cell = &cx.cells[p.idx()];
-        for (f, &tag) in cell.faces().zip(cell.tags()) {
+        for (f, &tag) in cell.faces_cow().zip(cell.tags()) {
             let cells = cx.patches.get(tag as usize).map(|pa| pa.cells);
             let inner = cells.is_some_and(|[c0, c1]| {
                 let other = if c0 == p { c1 } else { c0 };
