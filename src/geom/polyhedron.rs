@@ -1056,7 +1056,10 @@ mod tests {
                 if v.faces.len() < 4 || occ > SMALL_OCCURRENCES {
                     continue;
                 }
-                let (small, general) = (check_small::<SMALL_OCCURRENCES>(&v.faces, &tol), check_general(&v.faces, &tol));
+                let (small, general) = (
+                    check_small::<SMALL_OCCURRENCES>(&v.faces, &tol),
+                    check_general(&v.faces, &tol),
+                );
                 assert_eq!(small, general, "round {round}");
                 if occ <= 16 {
                     assert_eq!(check_small::<16>(&v.faces, &tol), general, "round {round}");
