@@ -109,6 +109,19 @@ pub fn dist(a: &P3, b: &P3) -> f64 {
     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }
 
+/// Axis-aligned bounding box `(lo, hi)` of points (`lo` = +inf, `hi` = -inf for none).
+pub fn bounds<'a>(points: impl IntoIterator<Item = &'a P3>) -> (P3, P3) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for v in points {
+        for k in 0..3 {
+            lo[k] = lo[k].min(v[k]);
+            hi[k] = hi[k].max(v[k]);
+        }
+    }
+    (lo, hi)
+}
+
 /// `a (1 - t) + b t`: exactly `a` at `t = 0` and exactly `b` at `t = 1`, so grid points on
 /// box corners and edges are bit-identical however they are reached.
 #[inline]

@@ -176,10 +176,7 @@ impl TetShape {
 
     /// The materialised polyhedron (faces in order `0..4`, tags `tags`).
     pub fn polyhedron(&self) -> ConvexPolyhedron {
-        ConvexPolyhedron::from_faces(
-            (0..4).map(|i| ConvexPolygon::from_slice(&self.face(i))).collect(),
-            self.tags.to_vec(),
-        )
+        ConvexPolyhedron::from_faces(self.faces().to_vec(), self.tags.to_vec())
     }
 }
 
@@ -308,17 +305,7 @@ impl Cell {
     /// Axis-aligned bounding box (as [`ConvexPolyhedron::aabb`]).
     pub fn aabb(&self) -> (P3, P3) {
         match &self.shape {
-            Shape::Tet(t) => {
-                let mut lo = [f64::INFINITY; 3];
-                let mut hi = [f64::NEG_INFINITY; 3];
-                for v in &t.corners {
-                    for k in 0..3 {
-                        lo[k] = lo[k].min(v[k]);
-                        hi[k] = hi[k].max(v[k]);
-                    }
-                }
-                (lo, hi)
-            }
+            Shape::Tet(t) => crate::base::vec::bounds(&t.corners),
             Shape::Poly(p) => p.aabb(),
         }
     }

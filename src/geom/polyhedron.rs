@@ -198,17 +198,7 @@ impl ConvexPolyhedron {
 
     /// Axis-aligned bounding box `(lo, hi)`.
     pub fn aabb(&self) -> (P3, P3) {
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        for f in &self.faces {
-            for v in &f.verts {
-                for k in 0..3 {
-                    lo[k] = lo[k].min(v[k]);
-                    hi[k] = hi[k].max(v[k]);
-                }
-            }
-        }
-        (lo, hi)
+        crate::base::vec::bounds(self.faces.iter().flat_map(|f| f.verts.iter()))
     }
 
     /// Outward face planes (unit normals), one per face — coplanar patches give

@@ -26,14 +26,7 @@ impl<'a> Locator<'a> {
         let mut boxes = Vec::new();
         for (ci, c) in doc.cells.iter().enumerate() {
             for (pi, p) in c.pieces.iter().enumerate() {
-                let mut lo = [f64::INFINITY; 3];
-                let mut hi = [f64::NEG_INFINITY; 3];
-                for v in &p.vertices {
-                    for k in 0..3 {
-                        lo[k] = lo[k].min(v[k]);
-                        hi[k] = hi[k].max(v[k]);
-                    }
-                }
+                let (lo, hi) = crate::base::vec::bounds(&p.vertices);
                 boxes.push((ci, pi, lo, hi));
             }
         }
