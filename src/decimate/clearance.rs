@@ -375,7 +375,7 @@ struct Link {
     av: [f64; 3],
     /// The area of the largest portal piece: its plane (its centroid, and its normal in
     /// `av`'s orientation) is the portal plane when the area vector degenerates. The plane
-    /// is not stored (56 bytes in each copy of every link) but recomputed from the piece
+    /// is not stored (56 bytes in every link) but recomputed from the piece
     /// when a frame is needed ([`Link::frame`]): the same calls on the same piece, so the
     /// same bits.
     largest_area: f64,
@@ -389,8 +389,7 @@ struct Link {
     /// this portal set.
     refined: bool,
     /// The weight of this pair's entry in the merge's heap, with this link's saddle, while
-    /// that entry has not been popped (NaN: none; weights are never NaN). Both copies of
-    /// a link carry it. A push of the same key would only add a duplicate (see
+    /// that entry has not been popped (NaN: none; weights are never NaN). A push of the same key would only add a duplicate (see
     /// `run_inner`'s `requeue`), so it is skipped.
     queued: f64,
 }
@@ -606,32 +605,12 @@ struct Comp {
     label: u32,
 }
 
-/// A component's links by neighbour, sorted by the neighbour's id: the subset of
-/// `BTreeMap<u32, Link>`'s interface the merge uses, in a flat vector (a B-tree node holds
-/// eleven links, about 1.2 kB, for components that mostly have three or four neighbours).
-/// Iteration is in key order, as the map's.
+/// A component's neighbours, sorted by id, each with the slot of their pair's link in the
+/// [`LinkStore`]: the subset of `BTreeMap<u32, _>`'s interface the merge uses, in a flat
+/// vector (a B-tree node holds eleven entries, for components that mostly have three or
+/// four neighbours). Iteration is in key order, as the map's.
 #[derive(Clone, Debug, Default)]
-struct Links(Vec<(u32, Link)>);
-
-/// A slot of [`Links`] ([`Links::entry`]).
-struct LinkSlot<'a> {
-    links: &'a mut Links,
-    at: Result<usize, usize>,
-    key: u32,
-}
-
-impl<'a> LinkSlot<'a> {
-    fn or_insert(self, v: Link) -> &'a mut Link {
-        let i = match self.at {
-            Ok(i) => i,
-            Err(i) => {
-                self.links.0.insert(i, (self.key, v));
-                i
-            }
-        };
-        &mut self.links.0[i].1
-    }
-}
+struct Links(Vec<(u32, u32)>);
 
 impl Links {
     fn find(&self, k: u32) -> Result<usize, usize> {
@@ -640,49 +619,104 @@ impl Links {
     fn len(&self) -> usize {
         self.0.len()
     }
-    fn get(&self, k: &u32) -> Option<&Link> {
-        self.find(*k).ok().map(|i| &self.0[i].1)
+    /// The slot of the link towards `k`, if linked.
+    fn slot(&self, k: u32) -> Option<u32> {
+        self.find(k).ok().map(|i| self.0[i].1)
     }
-    fn get_mut(&mut self, k: u32) -> Option<&mut Link> {
-        self.find(k).ok().map(|i| &mut self.0[i].1)
-    }
-    fn insert(&mut self, k: u32, v: Link) -> Option<Link> {
+    /// Links `k` through `slot` (replacing its slot if already linked).
+    fn insert(&mut self, k: u32, slot: u32) {
         match self.find(k) {
-            Ok(i) => Some(std::mem::replace(&mut self.0[i].1, v)),
-            Err(i) => {
-                self.0.insert(i, (k, v));
-                None
-            }
+            Ok(i) => self.0[i].1 = slot,
+            Err(i) => self.0.insert(i, (k, slot)),
         }
     }
-    fn remove(&mut self, k: &u32) -> Option<Link> {
-        self.find(*k).ok().map(|i| self.0.remove(i).1)
-    }
-    fn entry(&mut self, k: u32) -> LinkSlot<'_> {
-        let at = self.find(k);
-        LinkSlot {
-            links: self,
-            at,
-            key: k,
-        }
+    /// Unlinks `k`; gives its slot.
+    fn remove(&mut self, k: u32) -> Option<u32> {
+        self.find(k).ok().map(|i| self.0.remove(i).1)
     }
     fn keys(&self) -> impl Iterator<Item = &u32> + '_ {
         self.0.iter().map(|e| &e.0)
     }
 }
 
-impl std::ops::Index<&u32> for Links {
-    type Output = Link;
-    fn index(&self, k: &u32) -> &Link {
-        self.get(k).expect("a linked neighbour")
+/// The links of all components: one [`Link`] per linked pair, held as seen from the
+/// pair's lower id, instead of a copy in each component (80 bytes per copy; a million
+/// triangles have about 2.6 million pairs). The higher id reads it
+/// [`reversed`](Link::reversed), which negates the orientation (exact), so it sees the
+/// bits its own copy held, up to the sign of zero components of `av` (which no value
+/// depends on: they enter only norms, products and comparisons). Slots of links fused
+/// away are reused.
+#[derive(Clone, Debug, Default)]
+struct LinkStore {
+    links: Vec<Link>,
+    free: Vec<u32>,
+}
+
+impl LinkStore {
+    fn with_capacity(n: usize) -> Self {
+        LinkStore {
+            links: Vec::with_capacity(n),
+            free: Vec::new(),
+        }
+    }
+    /// The link in `slot` as seen from `from` towards `to`.
+    fn get(&self, slot: u32, from: u32, to: u32) -> Link {
+        let l = self.links[slot as usize];
+        if from < to { l } else { l.reversed() }
+    }
+    /// Stores `l`, seen from `from` towards `to`, in `slot`.
+    fn set(&mut self, slot: u32, from: u32, to: u32, l: Link) {
+        self.links[slot as usize] = if from < to { l } else { l.reversed() };
+    }
+    /// The link in `slot`, for the fields that do not depend on the side (`saddle`,
+    /// `area`, `queued`, `refined`).
+    fn at(&mut self, slot: u32) -> &mut Link {
+        &mut self.links[slot as usize]
+    }
+    /// A new slot holding `l`, seen from `from` towards `to`.
+    fn add(&mut self, from: u32, to: u32, l: Link) -> u32 {
+        let slot = match self.free.pop() {
+            Some(s) => s,
+            None => {
+                self.links.push(Link::EMPTY);
+                (self.links.len() - 1) as u32
+            }
+        };
+        self.set(slot, from, to, l);
+        slot
+    }
+    fn release(&mut self, slot: u32) {
+        self.free.push(slot);
     }
 }
 
-impl<'a> IntoIterator for &'a Links {
-    type Item = (&'a u32, &'a Link);
-    type IntoIter = std::iter::Map<std::slice::Iter<'a, (u32, Link)>, fn(&'a (u32, Link)) -> (&'a u32, &'a Link)>;
-    fn into_iter(self) -> Self::IntoIter {
-        self.0.iter().map(|(k, l)| (k, l))
+/// Collapses `b` into `a` in the link graph: drops their link, and moves each other link
+/// of `b` to `a`, fused with `a`'s own link to the same neighbour (`Link::fuse`, `a`'s
+/// side first) where it has one. `ca` and `cb` are the two components, taken out of
+/// `comps`.
+fn merge_links(comps: &mut [Comp], store: &mut LinkStore, ca: &mut Comp, cb: &Comp, a: u32, b: u32) {
+    if let Some(s) = ca.links.remove(b) {
+        store.release(s);
+    }
+    for &(k, sk) in &cb.links.0 {
+        if k == a {
+            continue;
+        }
+        let m = &mut comps[k as usize].links;
+        m.remove(b);
+        let lk = store.get(sk, b, k);
+        match ca.links.slot(k) {
+            Some(sa) => {
+                let fused = store.get(sa, a, k).fuse(&lk);
+                store.set(sa, a, k, fused);
+                store.release(sk);
+            }
+            None => {
+                store.set(sk, a, k, Link::EMPTY.fuse(&lk));
+                ca.links.insert(k, sk);
+                m.insert(a, sk);
+            }
+        }
     }
 }
 
@@ -1262,6 +1296,7 @@ fn run_inner(
             k.links.0.reserve_exact(d as usize);
         }
     }
+    let mut store = LinkStore::with_capacity(degree.iter().map(|&d| d as usize).sum::<usize>() / 2);
     drop(degree);
     for (k, p) in cx.portals.iter().enumerate() {
         let [a, b] = p.cells;
@@ -1280,9 +1315,16 @@ fn run_inner(
                 (l.largest_area, l.largest_at) = (qa, (k as u32, i as u32));
             }
         }
-        for (x, y, l) in [(a, b, l), (b, a, l.reversed())] {
-            let e = comps[x.idx()].links.entry(y.0).or_insert(Link::EMPTY);
-            *e = e.fuse(&l);
+        match comps[a.idx()].links.slot(b.0) {
+            Some(s) => {
+                let fused = store.get(s, a.0, b.0).fuse(&l);
+                store.set(s, a.0, b.0, fused);
+            }
+            None => {
+                let s = store.add(a.0, b.0, Link::EMPTY.fuse(&l));
+                comps[a.idx()].links.insert(b.0, s);
+                comps[b.idx()].links.insert(a.0, s);
+            }
         }
     }
     // The complex portals of each cell and the component of each cell (union-find), for
@@ -1327,13 +1369,12 @@ fn run_inner(
     let dedup = trace.is_none();
     // Marks pair `a < b` queued with key (`w`, `saddle`) and gives the entry to push, or
     // `None` when the same key is still queued (see above).
-    let mark = |comps: &mut [Comp], a: u32, b: u32, w: f64, saddle: f64| -> Option<Entry> {
-        let la = comps[a as usize].links.get_mut(b).expect("a linked neighbour");
+    let mark = |comps: &[Comp], store: &mut LinkStore, a: u32, b: u32, w: f64, saddle: f64| -> Option<Entry> {
+        let la = store.at(comps[a as usize].links.slot(b).expect("a linked neighbour"));
         if dedup && la.queued.to_bits() == w.to_bits() {
             return None;
         }
         la.queued = w;
-        comps[b as usize].links.get_mut(a).expect("a linked neighbour").queued = w;
         Some(Entry {
             weight: w,
             saddle,
@@ -1341,29 +1382,30 @@ fn run_inner(
             b,
         })
     };
-    let requeue = |comps: &mut [Comp], heap: &mut Heap4<Key>, a: u32, b: u32, w: f64, saddle: f64| {
-        if let Some(e) = mark(comps, a, b, w, saddle) {
-            heap.push(Key::of(e));
-        }
-    };
+    let requeue =
+        |comps: &[Comp], store: &mut LinkStore, heap: &mut Heap4<Key>, a: u32, b: u32, w: f64, saddle: f64| {
+            if let Some(e) = mark(comps, store, a, b, w, saddle) {
+                heap.push(Key::of(e));
+            }
+        };
     // Every live pair: at the start, and again after a constrained stretch (whose pairs
     // across groups were dropped from the heap). Only live components have links. The
     // entries are appended and the heap order restored once (a bottom-up construction when
     // the heap was empty): the heap's layout differs from pushing one by one, its pops do
     // not ([`Heap4`]: a pop returns the greatest entry, and equal entries are the same
     // bits).
-    let push_all = |comps: &mut [Comp], heap: &mut Heap4<Key>, stats: &mut DecimationStats| {
+    let push_all = |comps: &[Comp], store: &mut LinkStore, heap: &mut Heap4<Key>, stats: &mut DecimationStats| {
         let from = heap.len();
         for a in 0..comps.len() {
             if !comps[a].alive {
                 continue;
             }
-            for i in 0..comps[a].links.len() {
-                let (b, l) = comps[a].links.0[i];
+            for &(b, slot) in &comps[a].links.0 {
                 if (a as u32) < b {
+                    let l = store.links[slot as usize];
                     stats.weights_computed += 1;
                     let w = weigh(&comps[a], &comps[b as usize], &l);
-                    if let Some(e) = mark(comps, a as u32, b, w, l.saddle) {
+                    if let Some(e) = mark(comps, store, a as u32, b, w, l.saddle) {
                         heap.push_unordered(Key::of(e));
                     }
                 }
@@ -1372,16 +1414,31 @@ fn run_inner(
         heap.restore(from);
     };
     let mut heap = Heap4::with_capacity(stats.initial_pairs * 2);
-    push_all(&mut comps, &mut heap, &mut stats);
+    push_all(&comps, &mut store, &mut heap, &mut stats);
     stats.init_seconds = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     let mut steps = Vec::new();
     // The stopped run's clean-up, on a copy of the state where it stops.
-    let cut_here = |comps: &[Comp], cells: usize, steps: usize, w: f64, stats: &DecimationStats, constrained: bool| {
+    let cut_here = |comps: &[Comp],
+                    store: &LinkStore,
+                    cells: usize,
+                    steps: usize,
+                    w: f64,
+                    stats: &DecimationStats,
+                    constrained: bool| {
         let mut cleanup = Vec::new();
         if let Some(g) = gate {
-            let (mut copy, mut left) = (comps.to_vec(), cells);
-            clean_up(cx, &mut copy, &g, constrained, &mut cleanup, &mut left, &mut |_, _| {});
+            let (mut copy, mut links, mut left) = (comps.to_vec(), store.clone(), cells);
+            clean_up(
+                cx,
+                &mut copy,
+                &mut links,
+                &g,
+                constrained,
+                &mut cleanup,
+                &mut left,
+                &mut |_, _| {},
+            );
         }
         super::Cut {
             steps,
@@ -1395,7 +1452,7 @@ fn run_inner(
     let mut constrained = labels.is_some();
     let stop = loop {
         #[cfg(test)]
-        queue_audit::check(&comps, &heap);
+        queue_audit::check(&comps, &store, &heap);
         if let StopRule::Cells(target) = settings.stop
             && cells <= target
         {
@@ -1416,10 +1473,10 @@ fn run_inner(
             if let Some((_, c)) = cut.as_mut()
                 && c.is_none()
             {
-                **c = Some(cut_here(&comps, cells, steps.len(), next, &stats, true));
+                **c = Some(cut_here(&comps, &store, cells, steps.len(), next, &stats, true));
             }
             constrained = false;
-            push_all(&mut comps, &mut heap, &mut stats);
+            push_all(&comps, &mut store, &mut heap, &mut stats);
             continue;
         };
         let (a, b) = (e.a as usize, e.b as usize);
@@ -1427,15 +1484,15 @@ fn run_inner(
         if !(comps[a].alive && comps[b].alive) {
             continue;
         }
-        let Some(l) = comps[a].links.get(&e.b).copied() else {
+        let Some(slot) = comps[a].links.slot(e.b) else {
             continue;
         };
+        let l = store.links[slot as usize];
         if l.saddle.to_bits() != e.saddle.to_bits() || weigh(&comps[a], &comps[b], &l).to_bits() != e.weight.to_bits() {
             continue;
         }
         // This pair's entry has left the heap.
-        comps[a].links.get_mut(e.b).expect("a linked neighbour").queued = f64::NAN;
-        comps[b].links.get_mut(e.a).expect("a linked neighbour").queued = f64::NAN;
+        store.at(slot).queued = f64::NAN;
         if constrained && comps[a].label != comps[b].label {
             // Across groups: weighed again when a side changes, or after the constraint.
             continue;
@@ -1454,10 +1511,10 @@ fn run_inner(
             && c.is_none()
             && w >= *r
         {
-            **c = Some(cut_here(&comps, cells, steps.len(), w, &stats, constrained));
+            **c = Some(cut_here(&comps, &store, cells, steps.len(), w, &stats, constrained));
             if constrained {
                 constrained = false;
-                push_all(&mut comps, &mut heap, &mut stats);
+                push_all(&comps, &mut store, &mut heap, &mut stats);
             }
         }
         let gated = gate.filter(|g| {
@@ -1512,11 +1569,10 @@ fn run_inner(
             l2.saddle = s2;
             l2.refined = true;
             l2.queued = f64::NAN;
-            comps[a].links.insert(e.b, l2);
-            comps[b].links.insert(e.a, l2.reversed());
+            *store.at(slot) = l2;
             stats.weights_computed += 1;
             let w2 = weigh(&comps[a], &comps[b], &l2);
-            requeue(&mut comps, &mut heap, e.a, e.b, w2, l2.saddle);
+            requeue(&comps, &mut store, &mut heap, e.a, e.b, w2, l2.saddle);
             continue;
         }
         if gated.is_some() || trace.is_some() {
@@ -1561,23 +1617,13 @@ fn run_inner(
         let (pa, pb) = (comps[a].peak, comps[b].peak);
         let mut cb = std::mem::take(&mut comps[b]);
         let mut ca = std::mem::take(&mut comps[a]);
-        ca.links.remove(&e.b);
+        merge_links(&mut comps, &mut store, &mut ca, &cb, e.a, e.b);
         cells -= 1;
         // Pairs whose weight may change: every neighbour of the side with the lower peak
         // (its partner's peak rises to the higher one), and every neighbour of b (saddle,
         // volume); with the volumes and piece counts in the context, or a gate (whose
         // sections grew), all of them. Either set is a list of keys in increasing order,
         // weighed below, once `ca` is back in place.
-        for (&k, lk) in &cb.links {
-            if k as usize == a {
-                continue;
-            }
-            let m = &mut comps[k as usize].links;
-            m.remove(&e.b);
-            let entry = ca.links.entry(k).or_insert(Link::EMPTY);
-            *entry = entry.fuse(lk);
-            m.insert(e.a, entry.reversed());
-        }
         let all = pa < pb || h.uses_volume() || gate.is_some();
         ca.peak = pa.max(pb);
         ca.volume += cb.volume;
@@ -1612,29 +1658,39 @@ fn run_inner(
         if all {
             // Every link of the survivor, in its order (no sorted key list).
             for i in 0..comps[a].links.len() {
-                let (k, lk) = comps[a].links.0[i];
+                let (k, slot) = comps[a].links.0[i];
+                let lk = store.links[slot as usize];
                 let (x, y) = if (a as u32) < k { (a as u32, k) } else { (k, a as u32) };
                 stats.weights_computed += 1;
                 let w = weigh(&comps[x as usize], &comps[y as usize], &lk);
-                requeue(&mut comps, &mut heap, x, y, w, lk.saddle);
+                requeue(&comps, &mut store, &mut heap, x, y, w, lk.saddle);
             }
         } else {
             for &k in cb.links.keys().filter(|&&k| k as usize != a) {
-                let lk = comps[a].links[&k];
+                let lk = store.links[comps[a].links.slot(k).expect("a linked neighbour") as usize];
                 let (x, y) = if (a as u32) < k { (a as u32, k) } else { (k, a as u32) };
                 stats.weights_computed += 1;
                 let w = weigh(&comps[x as usize], &comps[y as usize], &lk);
-                requeue(&mut comps, &mut heap, x, y, w, lk.saddle);
+                requeue(&comps, &mut store, &mut heap, x, y, w, lk.saddle);
             }
         }
     };
     if let Some(g) = gate {
-        clean_up(cx, &mut comps, &g, constrained, &mut steps, &mut cells, progress);
+        clean_up(
+            cx,
+            &mut comps,
+            &mut store,
+            &g,
+            constrained,
+            &mut steps,
+            &mut cells,
+            progress,
+        );
     }
     stats.steps = steps.len();
     stats.collapse_seconds = t1.elapsed().as_secs_f64();
     // The merge's state is freed before the replay allocates the partition.
-    drop((comps, heap, cell_portals, owner));
+    drop((comps, store, heap, cell_portals, owner));
     let partition = Decimation::replay(cx, &steps).expect("the merge records live pairs, lower id first");
     Decimation {
         settings: *settings,
@@ -1655,9 +1711,11 @@ fn run_inner(
 /// room behind an opening failed — the lowest such component (ties: lowest id) is absorbed into the
 /// qualifying neighbour across the largest portal area (ties: lowest id); each absorption
 /// is recorded as a step (survivor: the lower id) whose weight is the peak ratio.
+#[allow(clippy::too_many_arguments)]
 fn clean_up(
     cx: &CellComplex,
     comps: &mut [Comp],
+    store: &mut LinkStore,
     g: &ApertureGate,
     constrained: bool,
     steps: &mut Vec<Step>,
@@ -1682,7 +1740,12 @@ fn clean_up(
         // The lowest absorbable component, its chosen neighbour and the peak ratio.
         let mut pick: Option<(u32, u32, f64)> = None;
         for &i in &order {
-            let links: Vec<(u32, Link)> = comps[i as usize].links.0.clone();
+            let links: Vec<(u32, Link)> = comps[i as usize]
+                .links
+                .0
+                .iter()
+                .map(|&(j, slot)| (j, store.get(slot, i, j)))
+                .collect();
             let peak = comps[i as usize].peak;
             let mut best: Option<(f64, u32)> = None;
             for (j, l) in links {
@@ -1715,21 +1778,11 @@ fn clean_up(
             return;
         };
         let (a, b) = (x.min(y), x.max(y));
-        let l = comps[a as usize].links[&b];
+        let l = store.links[comps[a as usize].links.slot(b).expect("a linked neighbour") as usize];
         let mut cb = std::mem::take(&mut comps[b as usize]);
         let mut ca = std::mem::take(&mut comps[a as usize]);
-        ca.links.remove(&b);
+        merge_links(comps, store, &mut ca, &cb, a, b);
         settled[a as usize] = false;
-        for (&k, lk) in &cb.links {
-            if k == a {
-                continue;
-            }
-            let m = &mut comps[k as usize].links;
-            m.remove(&b);
-            let entry = ca.links.entry(k).or_insert(Link::EMPTY);
-            *entry = entry.fuse(lk);
-            m.insert(a, entry.reversed());
-        }
         for &k in ca.links.keys() {
             settled[k as usize] = false;
         }
@@ -1840,7 +1893,7 @@ fn regions(comps: &[Comp]) -> usize {
 /// saddle, so skipping a push of that key never loses the pair.
 #[cfg(test)]
 mod queue_audit {
-    use super::{Comp, Heap4, Key};
+    use super::{Comp, Heap4, Key, LinkStore};
     use std::cell::Cell;
 
     thread_local! {
@@ -1850,7 +1903,7 @@ mod queue_audit {
 
     /// Every 64th pop (a whole-heap check at every pop made the test take minutes): a
     /// wrong mark stays until its pair is weighed anew, so it is still seen.
-    pub fn check(comps: &[Comp], heap: &Heap4<Key>) {
+    pub fn check(comps: &[Comp], store: &LinkStore, heap: &Heap4<Key>) {
         if !ON.with(Cell::get) || !POPS.with(|p| p.replace(p.get() + 1)).is_multiple_of(64) {
             return;
         }
@@ -1863,7 +1916,8 @@ mod queue_audit {
             if !c.alive {
                 continue;
             }
-            for &(b, l) in &c.links.0 {
+            for &(b, slot) in &c.links.0 {
+                let l = store.links[slot as usize];
                 if (a as u32) < b && !l.queued.is_nan() {
                     assert!(
                         queued.contains(&(a as u32, b, l.queued.to_bits(), l.saddle.to_bits())),
@@ -2396,30 +2450,32 @@ mod tests {
         assert!(moves > 0, "some boundary moved");
     }
 
-    fn comp(peak: f64, links: &[(u32, f64)]) -> Comp {
-        let mut c = Comp {
+    fn comp(peak: f64) -> Comp {
+        Comp {
             alive: true,
             peak,
             volume: 1.0,
             pieces: 1,
             ..Comp::default()
-        };
-        for &(j, area) in links {
-            c.links.insert(j, Link { area, ..Link::EMPTY });
         }
-        c
+    }
+
+    /// Links pair `x < y` through a new slot holding `l` (seen from `x`).
+    fn link_pair(comps: &mut [Comp], store: &mut LinkStore, x: u32, y: u32, l: Link) {
+        let s = store.add(x, y, l);
+        comps[x as usize].links.insert(y, s);
+        comps[y as usize].links.insert(x, s);
     }
 
     #[test]
     fn clean_up_absorbs_dominated_components_lowest_first_across_the_largest_portal() {
         // 0 and 1 are rooms (peaks 1.0 and 0.9); 2 (peak 0.1) touches both, with the larger
         // portal towards 1; 3 (peak 0.01) touches only 2.
-        let mut comps = vec![
-            comp(1.0, &[(1, 1.0), (2, 0.5)]),
-            comp(0.9, &[(0, 1.0), (2, 2.0)]),
-            comp(0.1, &[(0, 0.5), (1, 2.0), (3, 0.3)]),
-            comp(0.01, &[(2, 0.3)]),
-        ];
+        let mut comps = vec![comp(1.0), comp(0.9), comp(0.1), comp(0.01)];
+        let mut store = LinkStore::default();
+        for (x, y, area) in [(0, 1, 1.0), (0, 2, 0.5), (1, 2, 2.0), (2, 3, 0.3)] {
+            link_pair(&mut comps, &mut store, x, y, Link { area, ..Link::EMPTY });
+        }
         let (mut steps, mut cells) = (Vec::new(), 4);
         let (_, cx) = complexes().pop().unwrap();
         let g = ApertureGate {
@@ -2427,7 +2483,16 @@ mod tests {
             slab: 0.0,
             ..DEFAULT_APERTURE
         };
-        clean_up(&cx, &mut comps, &g, false, &mut steps, &mut cells, &mut |_, _| {});
+        clean_up(
+            &cx,
+            &mut comps,
+            &mut store,
+            &g,
+            false,
+            &mut steps,
+            &mut cells,
+            &mut |_, _| {},
+        );
         let pairs: Vec<(u32, u32)> = steps.iter().map(|s| (s.a.0, s.b.0)).collect();
         // 3 first (lowest peak; its only neighbour 2 dominates it), then 2 into 1.
         assert_eq!(pairs, vec![(2, 3), (1, 2)]);
@@ -2452,18 +2517,19 @@ mod tests {
             largest_area: area,
             ..Link::EMPTY
         };
-        let mut comps = vec![comp(1.0, &[]), comp(0.4, &[]), comp(0.4, &[])];
+        let mut comps = vec![comp(1.0), comp(0.4), comp(0.4)];
         for (k, c) in comps.iter_mut().enumerate() {
             c.members.push(ids[k]);
         }
+        let mut store = LinkStore::default();
         for (x, y, area) in [(0u32, 1u32, 1e6), (0, 2, 1e-9)] {
-            comps[x as usize].links.insert(y, link(area));
-            comps[y as usize].links.insert(x, link(area).reversed());
+            link_pair(&mut comps, &mut store, x, y, link(area));
         }
         let (mut steps, mut cells) = (Vec::new(), 3);
         clean_up(
             &cx,
             &mut comps,
+            &mut store,
             &DEFAULT_APERTURE,
             false,
             &mut steps,
@@ -2485,16 +2551,25 @@ mod tests {
             ),
             (DEFAULT_APERTURE, 0.9),
         ] {
-            let mut fresh = vec![comp(1.0, &[]), comp(p, &[]), comp(p, &[])];
+            let mut fresh = vec![comp(1.0), comp(p), comp(p)];
             for (k, c) in fresh.iter_mut().enumerate() {
                 c.members.push(ids[k]);
             }
+            let mut store = LinkStore::default();
             for (x, y, area) in [(0u32, 1u32, 1e6), (0, 2, 1e-9)] {
-                fresh[x as usize].links.insert(y, link(area));
-                fresh[y as usize].links.insert(x, link(area).reversed());
+                link_pair(&mut fresh, &mut store, x, y, link(area));
             }
             let (mut steps, mut cells) = (Vec::new(), 3);
-            clean_up(&cx, &mut fresh, &g, false, &mut steps, &mut cells, &mut |_, _| {});
+            clean_up(
+                &cx,
+                &mut fresh,
+                &mut store,
+                &g,
+                false,
+                &mut steps,
+                &mut cells,
+                &mut |_, _| {},
+            );
             assert!(steps.is_empty());
         }
     }
