@@ -588,21 +588,89 @@ impl Key {
     }
 }
 
-/// Per-component state.
+/// Per-component state (80 bytes: one per cell id, so 2.3 million of them for a million
+/// triangles; `components_are_compact`).
 #[derive(Clone, Debug, Default)]
 struct Comp {
-    alive: bool,
     peak: f64,
     volume: f64,
-    pieces: usize,
+    /// Active cells merged into the component; 0 for a component that is not alive (an
+    /// inactive cell's, or one merged away).
+    pieces: u32,
     links: Links,
     /// The complex cells in the component (kept only when the aperture is needed).
-    members: Vec<u32>,
+    members: Members,
     /// The 3D convex hull of the members' vertices, built when first needed.
     /// (Boxed: most components never need one, and `Comp` is allocated for every cell.)
     hull: Option<Box<Hull3>>,
     /// The group of a constrained run ([`run_inner`]'s `labels`; 0 without).
     label: u32,
+}
+
+impl Comp {
+    fn alive(&self) -> bool {
+        self.pieces > 0
+    }
+}
+
+/// A component's cells: one held inline (every component starts as one cell, and most
+/// are merged away as one: no heap block for them), more in a vector. 24 bytes, as a
+/// `Vec`; derefs to the slice of ids.
+#[derive(Clone, Debug)]
+enum Members {
+    One(u32),
+    Many(Vec<u32>),
+}
+
+impl Default for Members {
+    fn default() -> Self {
+        Members::Many(Vec::new())
+    }
+}
+
+impl From<Vec<u32>> for Members {
+    fn from(v: Vec<u32>) -> Self {
+        Members::Many(v)
+    }
+}
+
+impl std::ops::Deref for Members {
+    type Target = [u32];
+    fn deref(&self) -> &[u32] {
+        match self {
+            Members::One(x) => std::slice::from_ref(x),
+            Members::Many(v) => v,
+        }
+    }
+}
+
+impl<'a> IntoIterator for &'a Members {
+    type Item = &'a u32;
+    type IntoIter = std::slice::Iter<'a, u32>;
+    fn into_iter(self) -> Self::IntoIter {
+        self.iter()
+    }
+}
+
+impl Members {
+    fn vec(&mut self) -> &mut Vec<u32> {
+        if let Members::One(x) = *self {
+            *self = Members::Many(vec![x]);
+        }
+        match self {
+            Members::Many(v) => v,
+            Members::One(_) => unreachable!("made a vector above"),
+        }
+    }
+    #[cfg(test)]
+    fn push(&mut self, x: u32) {
+        self.vec().push(x);
+    }
+    /// Appends `o`'s ids (in their order) and empties it.
+    fn append(&mut self, o: &mut Members) {
+        let o = std::mem::take(o);
+        self.vec().extend_from_slice(&o);
+    }
 }
 
 /// A component's neighbours, sorted by id, each with the slot of their pair's link in the
@@ -1271,13 +1339,12 @@ fn run_inner(
     let mut stats = DecimationStats::default();
     for (id, c) in cx.active_cells() {
         let k = &mut comps[id.idx()];
-        k.alive = true;
         k.peak = field.value[id.idx()];
         k.volume = c.volume();
         k.pieces = 1;
         k.label = labels.map_or(0, |(l, _)| l[id.idx()]);
         if sections {
-            k.members = vec![id.0];
+            k.members = Members::One(id.0);
         }
         cells += 1;
     }
@@ -1286,7 +1353,7 @@ fn run_inner(
     let mut degree = vec![0u32; n];
     for p in &cx.portals {
         let [a, b] = p.cells;
-        if comps[a.idx()].alive && comps[b.idx()].alive && a != b {
+        if comps[a.idx()].alive() && comps[b.idx()].alive() && a != b {
             degree[a.idx()] += 1;
             degree[b.idx()] += 1;
         }
@@ -1300,7 +1367,7 @@ fn run_inner(
     drop(degree);
     for (k, p) in cx.portals.iter().enumerate() {
         let [a, b] = p.cells;
-        if !(comps[a.idx()].alive && comps[b.idx()].alive) || a == b {
+        if !(comps[a.idx()].alive() && comps[b.idx()].alive()) || a == b {
             continue;
         }
         let mut l = Link {
@@ -1338,7 +1405,7 @@ fn run_inner(
         owner = (0..n as u32).collect();
         cell_portals = CellPortals::new(cx, |k| {
             let [a, b] = cx.portals[k].cells;
-            comps[a.idx()].alive && comps[b.idx()].alive && a != b
+            comps[a.idx()].alive() && comps[b.idx()].alive() && a != b
         });
     }
     stats.initial_cells = cells;
@@ -1349,7 +1416,7 @@ fn run_inner(
             portal_area: l.area,
             projected: [0.0, 0.0],
             volumes: [x.volume, y.volume],
-            pieces: [x.pieces, y.pieces],
+            pieces: [x.pieces as usize, y.pieces as usize],
             peaks: [x.peak, y.peak],
             saddle: l.saddle,
         }))
@@ -1397,7 +1464,7 @@ fn run_inner(
     let push_all = |comps: &[Comp], store: &mut LinkStore, heap: &mut Heap4<Key>, stats: &mut DecimationStats| {
         let from = heap.len();
         for a in 0..comps.len() {
-            if !comps[a].alive {
+            if !comps[a].alive() {
                 continue;
             }
             for &(b, slot) in &comps[a].links.0 {
@@ -1417,7 +1484,9 @@ fn run_inner(
     push_all(&comps, &mut store, &mut heap, &mut stats);
     stats.init_seconds = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
-    let mut steps = Vec::new();
+    // At most one collapse per cell but the last (exact capacity: a grown vector holds up
+    // to twice its length; pages of the reserve never used are never touched).
+    let mut steps = Vec::with_capacity(cells.saturating_sub(1));
     // The stopped run's clean-up, on a copy of the state where it stops.
     let cut_here = |comps: &[Comp],
                     store: &LinkStore,
@@ -1481,7 +1550,7 @@ fn run_inner(
         };
         let (a, b) = (e.a as usize, e.b as usize);
         // Stale entries: a side merged away, or the weight or saddle changed since.
-        if !(comps[a].alive && comps[b].alive) {
+        if !(comps[a].alive() && comps[b].alive()) {
             continue;
         }
         let Some(slot) = comps[a].links.slot(e.b) else {
@@ -1644,7 +1713,6 @@ fn run_inner(
                 _ => None,
             };
         }
-        ca.alive = true;
         steps.push(Step {
             a: CellId(e.a),
             b: CellId(e.b),
@@ -1729,7 +1797,7 @@ fn clean_up(
     let mut settled = vec![false; comps.len()];
     loop {
         let mut order: Vec<u32> = (0..comps.len() as u32)
-            .filter(|&i| comps[i as usize].alive && !settled[i as usize])
+            .filter(|&i| comps[i as usize].alive() && !settled[i as usize])
             .collect();
         order.sort_by(|&x, &y| {
             comps[x as usize]
@@ -1750,7 +1818,7 @@ fn clean_up(
             let mut best: Option<(f64, u32)> = None;
             for (j, l) in links {
                 let o = &comps[j as usize];
-                if !o.alive
+                if !o.alive()
                     || o.peak <= 0.0
                     || peak > o.peak
                     || best.is_some_and(|(a, _)| l.area <= a)
@@ -1800,7 +1868,6 @@ fn clean_up(
             }
             _ => None,
         };
-        ca.alive = true;
         comps[a as usize] = ca;
         *cells -= 1;
         steps.push(Step {
@@ -1870,7 +1937,7 @@ fn regions(comps: &[Comp]) -> usize {
     let mut count = 0;
     let mut stack = Vec::new();
     for s in 0..comps.len() {
-        if !comps[s].alive || seen[s] {
+        if !comps[s].alive() || seen[s] {
             continue;
         }
         count += 1;
@@ -1913,7 +1980,7 @@ mod queue_audit {
             .map(|e| (e.a, e.b, e.weight.to_bits(), e.saddle.to_bits()))
             .collect();
         for (a, c) in comps.iter().enumerate() {
-            if !c.alive {
+            if !c.alive() {
                 continue;
             }
             for &(b, slot) in &c.links.0 {
@@ -2172,6 +2239,24 @@ mod tests {
     }
 
     #[test]
+    fn components_are_compact() {
+        // One component per cell id and one link per pair: their sizes are the merge's
+        // memory at a million triangles (2.3 million ids, 2.6 million pairs).
+        assert_eq!(std::mem::size_of::<Members>(), 24);
+        assert_eq!(std::mem::size_of::<Comp>(), 80);
+        assert_eq!(std::mem::size_of::<Link>(), 72);
+        let mut m = Members::One(7);
+        assert_eq!(&*m, &[7]);
+        m.append(&mut Members::One(3));
+        m.append(&mut vec![5, 1].into());
+        assert_eq!(&*m, &[7, 3, 5, 1], "appended in order");
+        let mut c = Comp::default();
+        assert!(!c.alive());
+        c.pieces = 1;
+        assert!(c.alive());
+    }
+
+    #[test]
     fn a_links_plane_is_its_largest_pieces_and_turns_with_it() {
         let (_, cx) = complexes().pop().unwrap();
         let (k, p) = cx
@@ -2331,7 +2416,7 @@ mod tests {
             groups.extend(active.chunks(active.len() / 5 + 1).map(<[u32]>::to_vec));
             for (gi, members) in groups.into_iter().enumerate() {
                 let c = Comp {
-                    members,
+                    members: members.into(),
                     ..Comp::default()
                 };
                 for (fi, n) in [[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.3, -0.5, 0.81], [-0.7, 0.1, 0.2]]
@@ -2452,7 +2537,6 @@ mod tests {
 
     fn comp(peak: f64) -> Comp {
         Comp {
-            alive: true,
             peak,
             volume: 1.0,
             pieces: 1,
@@ -2497,7 +2581,7 @@ mod tests {
         // 3 first (lowest peak; its only neighbour 2 dominates it), then 2 into 1.
         assert_eq!(pairs, vec![(2, 3), (1, 2)]);
         assert_eq!(cells, 2);
-        assert!(comps[0].alive && comps[1].alive && !comps[2].alive && !comps[3].alive);
+        assert!(comps[0].alive() && comps[1].alive() && !comps[2].alive() && !comps[3].alive());
         assert!((steps[0].weight - 0.1).abs() < 1e-12);
         // The rooms are not dominated (0.9 > 0.15 · 1.0): both stay.
         assert_eq!(comps[1].links.keys().copied().collect::<Vec<_>>(), vec![0]);
