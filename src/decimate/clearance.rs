@@ -137,12 +137,10 @@ pub struct CellField {
     /// along the best sampled path from one cell's best sample through the portal to the
     /// other's.
     pub passage: Vec<f64>,
-    /// The distance field itself.
+    /// The distance field itself. (A cell's best sample, where `value` was found, is not
+    /// stored — 32 bytes per cell id, 74 MB for a million triangles — but found again
+    /// where needed, from the same queries: [`CellField::best_of`].)
     field: ClearanceField,
-    /// The best sample of each cell (where `value` was found).
-    best: Vec<[f64; 3]>,
-    /// The clearance at `best` (as the field returned it, before `value`'s clamping).
-    best_clearance: Vec<f64>,
 }
 
 /// The lowest clearance on the segment `p..q` (which lies in free space), by marching:
@@ -285,13 +283,13 @@ impl CellField {
             .iter()
             .map(|&(bv, _)| if bv.is_finite() { bv.max(0.0) } else { 0.0 })
             .collect();
-        CellField {
-            value,
-            passage,
-            field,
-            best: peaks.iter().map(|&(_, x)| x).collect(),
-            best_clearance: peaks.iter().map(|&(d, _)| d).collect(),
-        }
+        CellField { value, passage, field }
+    }
+
+    /// The best sample of an active cell: (its clearance, as the field returned it, before
+    /// `value`'s clamping; the sample, where `value` was found).
+    pub fn best_of(&self, cell: &Cell) -> (f64, [f64; 3]) {
+        best_sample(&self.field, cell)
     }
 }
 
@@ -317,18 +315,26 @@ impl CellField {
         let p = &cx.portals[k];
         let [a, b] = p.cells;
         let (sa, sb) = (cell_samples(&cx.cells[a.idx()]), cell_samples(&cx.cells[b.idx()]));
-        let (ba, bb) = (self.best[a.idx()], self.best[b.idx()]);
-        let (da, db) = (self.best_clearance[a.idx()], self.best_clearance[b.idx()]);
         let s0 = self.passage[k];
         // Per side, the best first leg to each cell sample (with the clearance at its end).
         // A leg at or below `s0` never counts (`s` only rises from `s0`), so its marching
-        // may stop there.
-        let leg = |best: [f64; 3], d: f64, xs: &[[f64; 3]]| -> Vec<([f64; 3], f64, f64)> {
+        // may stop there. The legs start at the cell's best sample: the first of the
+        // highest clearances at its samples, the very value and sample `best_sample` finds
+        // (its bounded queries give the bits of these).
+        let leg = |xs: &[[f64; 3]]| -> Vec<([f64; 3], f64, f64)> {
+            let ds: Vec<f64> = xs.iter().map(|&x| self.field.distance(x)).collect();
+            let (mut d, mut best) = (f64::NEG_INFINITY, xs[0]);
+            for (&x, &dx) in xs.iter().zip(&ds) {
+                if dx > d {
+                    (d, best) = (dx, x);
+                }
+            }
             xs.iter()
-                .map(|&x| (x, segment_min_from(&self.field, best, d, x, s0), self.field.distance(x)))
+                .zip(&ds)
+                .map(|(&x, &dx)| (x, segment_min_from(&self.field, best, d, x, s0), dx))
                 .collect()
         };
-        let (la, lb) = (leg(ba, da, &sa), leg(bb, db, &sb));
+        let (la, lb) = (leg(&sa), leg(&sb));
         // Values at or below `floor` only matter as such (callers take `max(floor, ·)`).
         let side = |legs: &[([f64; 3], f64, f64)], y: [f64; 3], floor: f64| {
             let mut v = f64::NEG_INFINITY;
@@ -2075,7 +2081,7 @@ mod tests {
         let p = &cx.portals[k];
         let [a, b] = p.cells;
         let (sa, sb) = (cell_samples(&cx.cells[a.idx()]), cell_samples(&cx.cells[b.idx()]));
-        let (ba, bb) = (f.best[a.idx()], f.best[b.idx()]);
+        let (ba, bb) = (f.best_of(&cx.cells[a.idx()]).1, f.best_of(&cx.cells[b.idx()]).1);
         let leg = |best: [f64; 3], xs: &[[f64; 3]]| -> Vec<([f64; 3], f64)> {
             xs.iter().map(|&x| (x, segment_min(&f.field, best, x))).collect()
         };
@@ -2138,7 +2144,9 @@ mod tests {
             let (value, passage, best) = reference(&cx);
             assert_eq!(bits(&f.value), bits(&value), "{name}: cell values");
             assert_eq!(bits(&f.passage), bits(&passage), "{name}: passages");
-            assert_eq!(f.best, best, "{name}: best samples");
+            for (id, c) in cx.active_cells() {
+                assert_eq!(f.best_of(c).1, best[id.idx()], "{name}: best sample of {id:?}");
+            }
             assert!(f.passage.iter().any(|&s| s > 0.0), "{name}: some portal has a pass");
             // Refined passages too, on every portal between active cells.
             let mut checked = 0;
@@ -2168,7 +2176,7 @@ mod tests {
                 .enumerate()
                 .filter(|(k, p)| {
                     let a = p.cells[0].idx();
-                    cx.cells[a].active() && f.passage[*k] > 0.0 && f.passage[*k] >= f.best_clearance[a]
+                    cx.cells[a].active() && f.passage[*k] > 0.0 && f.passage[*k] >= f.best_of(&cx.cells[a]).0
                 })
                 .count();
             assert!(
@@ -2301,7 +2309,9 @@ mod tests {
         let (one, three) = (on(1), on(3));
         assert_eq!(bits(&one.value), bits(&three.value));
         assert_eq!(bits(&one.passage), bits(&three.passage));
-        assert_eq!(one.best, three.best);
+        for (_, c) in cx.active_cells() {
+            assert_eq!(one.best_of(c), three.best_of(c));
+        }
     }
 
     /// The merge skips a push whose identical entry is still queued (`requeue`); with a
