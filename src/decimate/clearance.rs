@@ -101,6 +101,7 @@ use crate::base::vec::{lerp, norm};
 use crate::complex::{Cell, CellComplex};
 use crate::geom::ClearanceField;
 use crate::ids::CellId;
+use thin_vec::ThinVec;
 
 /// The default stop ratio (`threshold:R` of the `clearance` heuristic): a pass must be
 /// narrower than `1 / R` of the smaller of the two rooms it joins to keep them apart.
@@ -385,15 +386,15 @@ struct Link {
     /// when a frame is needed ([`Link::frame`]): the same calls on the same piece, so the
     /// same bits.
     largest_area: f64,
-    /// The largest piece: (portal index into `CellComplex::portals`, piece index), or
-    /// `NO_PIECE` (no piece of positive area: the plane `z = 0`, normal `+z`).
-    largest_at: (u32, u32),
-    /// Whether the largest piece's normal is negated (the link seen from the portal's
-    /// second cell's side; negation is exact, so this is the stored normal's bits).
-    largest_flip: bool,
-    /// Whether the saddle is already the refined one ([`CellField::refined_passage`]) of
-    /// this portal set.
-    refined: bool,
+    /// The largest piece's portal (index into `CellComplex::portals`), or `u32::MAX` (no
+    /// piece of positive area: the plane `z = 0`, normal `+z`).
+    largest_portal: u32,
+    /// Bits 0..30: the largest piece's index in its portal. [`FLIP`]: whether its normal
+    /// is negated (the link seen from the portal's second cell's side; negation is exact,
+    /// so this is the stored normal's bits). [`REFINED`]: whether the saddle is already
+    /// the refined one ([`CellField::refined_passage`]) of this portal set. Packed so that
+    /// a link is 64 bytes, not 72 (`components_are_compact`).
+    bits: u32,
     /// The weight of this pair's entry in the merge's heap, with this link's saddle, while
     /// that entry has not been popped (NaN: none; weights are never NaN). A push of the same key would only add a duplicate (see
     /// `run_inner`'s `requeue`), so it is skipped.
@@ -421,18 +422,41 @@ impl Link {
         area: 0.0,
         av: [0.0; 3],
         largest_area: 0.0,
-        largest_at: NO_PIECE,
-        largest_flip: false,
-        refined: false,
+        largest_portal: u32::MAX,
+        bits: 0,
         queued: f64::NAN,
     };
+
+    /// A link whose largest piece is piece `i` of portal `k` (`i` below 2^30: a portal's
+    /// pieces are the patches two cells share).
+    fn with_largest(self, k: u32, i: u32) -> Link {
+        debug_assert!(i < REFINED);
+        Link {
+            largest_portal: k,
+            bits: i | (self.bits & (FLIP | REFINED)),
+            ..self
+        }
+    }
+
+    /// (portal, piece) of the largest piece, if any.
+    fn largest_at(&self) -> Option<(u32, u32)> {
+        (self.largest_portal != u32::MAX).then_some((self.largest_portal, self.bits & !(FLIP | REFINED)))
+    }
+
+    fn largest_flip(&self) -> bool {
+        self.bits & FLIP != 0
+    }
+
+    fn refined(&self) -> bool {
+        self.bits & REFINED != 0
+    }
 
     /// The link seen from the other side.
     fn reversed(&self) -> Link {
         let n = |v: [f64; 3]| [-v[0], -v[1], -v[2]];
         Link {
             av: n(self.av),
-            largest_flip: !self.largest_flip,
+            bits: self.bits ^ FLIP,
             ..*self
         }
     }
@@ -449,17 +473,17 @@ impl Link {
             } else {
                 self.largest_area
             },
-            largest_at: if o.largest_area > self.largest_area {
-                o.largest_at
+            // The larger's piece and flip; not refined.
+            largest_portal: if o.largest_area > self.largest_area {
+                o.largest_portal
             } else {
-                self.largest_at
+                self.largest_portal
             },
-            largest_flip: if o.largest_area > self.largest_area {
-                o.largest_flip
+            bits: if o.largest_area > self.largest_area {
+                o.bits & !REFINED
             } else {
-                self.largest_flip
+                self.bits & !REFINED
             },
-            refined: false,
             // This pair's queued entry keeps its key if the saddle keeps its bits.
             queued: if saddle.to_bits() == self.saddle.to_bits() {
                 self.queued
@@ -486,13 +510,14 @@ impl Link {
 
     /// The largest piece's normal (in `av`'s orientation) and centroid.
     fn largest_plane(&self, cx: &CellComplex) -> ([f64; 3], [f64; 3]) {
-        let (normal, centroid) = if self.largest_at == NO_PIECE {
-            ([0.0, 0.0, 1.0], [0.0; 3])
-        } else {
-            let q = &cx.portals[self.largest_at.0 as usize].pieces[self.largest_at.1 as usize];
-            (q.normal(), q.centroid())
+        let (normal, centroid) = match self.largest_at() {
+            None => ([0.0, 0.0, 1.0], [0.0; 3]),
+            Some((k, i)) => {
+                let q = &cx.portals[k as usize].pieces[i as usize];
+                (q.normal(), q.centroid())
+            }
         };
-        if self.largest_flip {
+        if self.largest_flip() {
             ([-normal[0], -normal[1], -normal[2]], centroid)
         } else {
             (normal, centroid)
@@ -520,8 +545,10 @@ impl RefinedCache {
     }
 }
 
-/// [`Link::largest_at`] of a link without a piece of positive area.
-const NO_PIECE: (u32, u32) = (u32::MAX, u32::MAX);
+/// [`Link::bits`]: the largest piece's normal is negated.
+const FLIP: u32 = 1 << 31;
+/// [`Link::bits`]: the saddle is the refined one.
+const REFINED: u32 = 1 << 30;
 
 /// A heap entry; the heap is a max-heap, so `Ord` is reversed to pop the lowest weight.
 #[derive(Clone, Copy, Debug)]
@@ -594,7 +621,7 @@ impl Key {
     }
 }
 
-/// Per-component state (80 bytes: one per cell id, so 2.3 million of them for a million
+/// Per-component state (72 bytes: one per cell id, so 2.3 million of them for a million
 /// triangles; `components_are_compact`).
 #[derive(Clone, Debug, Default)]
 struct Comp {
@@ -620,23 +647,20 @@ impl Comp {
 }
 
 /// A component's cells: one held inline (every component starts as one cell, and most
-/// are merged away as one: no heap block for them), more in a vector. 24 bytes, as a
-/// `Vec`; derefs to the slice of ids.
-#[derive(Clone, Debug)]
+/// are merged away as one: no heap block for them), more in a [`ThinVec`] (its length
+/// and capacity in the heap block). 16 bytes; derefs to the slice of ids.
+#[derive(Clone, Debug, Default)]
 enum Members {
+    /// Not tracked, or merged away.
+    #[default]
+    Empty,
     One(u32),
-    Many(Vec<u32>),
-}
-
-impl Default for Members {
-    fn default() -> Self {
-        Members::Many(Vec::new())
-    }
+    Many(ThinVec<u32>),
 }
 
 impl From<Vec<u32>> for Members {
     fn from(v: Vec<u32>) -> Self {
-        Members::Many(v)
+        Members::Many(v.into())
     }
 }
 
@@ -644,6 +668,7 @@ impl std::ops::Deref for Members {
     type Target = [u32];
     fn deref(&self) -> &[u32] {
         match self {
+            Members::Empty => &[],
             Members::One(x) => std::slice::from_ref(x),
             Members::Many(v) => v,
         }
@@ -659,13 +684,13 @@ impl<'a> IntoIterator for &'a Members {
 }
 
 impl Members {
-    fn vec(&mut self) -> &mut Vec<u32> {
-        if let Members::One(x) = *self {
-            *self = Members::Many(vec![x]);
+    fn vec(&mut self) -> &mut ThinVec<u32> {
+        if !matches!(self, Members::Many(_)) {
+            *self = Members::Many(self.iter().copied().collect());
         }
         match self {
             Members::Many(v) => v,
-            Members::One(_) => unreachable!("made a vector above"),
+            _ => unreachable!("made a vector above"),
         }
     }
     #[cfg(test)]
@@ -675,7 +700,9 @@ impl Members {
     /// Appends `o`'s ids (in their order) and empties it.
     fn append(&mut self, o: &mut Members) {
         let o = std::mem::take(o);
-        self.vec().extend_from_slice(&o);
+        if !o.is_empty() {
+            self.vec().extend_from_slice(&o);
+        }
     }
 }
 
@@ -1385,7 +1412,8 @@ fn run_inner(
             let (qa, qn) = (q.area(), q.normal());
             l.av = [l.av[0] + qa * qn[0], l.av[1] + qa * qn[1], l.av[2] + qa * qn[2]];
             if qa > l.largest_area {
-                (l.largest_area, l.largest_at) = (qa, (k as u32, i as u32));
+                l = l.with_largest(k as u32, i as u32);
+                l.largest_area = qa;
             }
         }
         match comps[a.idx()].links.slot(b.0) {
@@ -1595,7 +1623,7 @@ fn run_inner(
         let gated = gate.filter(|g| {
             w >= g.from && g.holds_ball(comps[a].peak, comps[a].volume) && g.holds_ball(comps[b].peak, comps[b].volume)
         });
-        if gated.is_some() && !l.refined {
+        if gated.is_some() && !l.refined() {
             // Before the gate decides, the best lower bound of the pass we can afford:
             // refined passages of every portal between the two components.
             let (small, other) = if comps[a].members.len() <= comps[b].members.len() {
@@ -1642,7 +1670,7 @@ fn run_inner(
             let s2 = refined.into_iter().fold(l.saddle, f64::max);
             let mut l2 = l;
             l2.saddle = s2;
-            l2.refined = true;
+            l2.bits |= REFINED;
             l2.queued = f64::NAN;
             *store.at(slot) = l2;
             stats.weights_computed += 1;
@@ -2250,9 +2278,18 @@ mod tests {
     fn components_are_compact() {
         // One component per cell id and one link per pair: their sizes are the merge's
         // memory at a million triangles (2.3 million ids, 2.6 million pairs).
-        assert_eq!(std::mem::size_of::<Members>(), 24);
-        assert_eq!(std::mem::size_of::<Comp>(), 80);
-        assert_eq!(std::mem::size_of::<Link>(), 72);
+        assert_eq!(std::mem::size_of::<Members>(), 16);
+        assert_eq!(std::mem::size_of::<Comp>(), 72);
+        assert_eq!(std::mem::size_of::<Link>(), 64);
+        let l = Link::EMPTY.with_largest(3, 5);
+        assert_eq!(l.largest_at(), Some((3, 5)));
+        assert!(!l.largest_flip() && !l.refined());
+        let mut r = l.reversed();
+        r.bits |= REFINED;
+        assert_eq!(r.largest_at(), Some((3, 5)));
+        assert!(r.largest_flip() && r.refined());
+        assert!(!r.fuse(&Link::EMPTY).refined() && r.fuse(&Link::EMPTY).largest_flip());
+        assert_eq!(Link::EMPTY.largest_at(), None);
         let mut m = Members::One(7);
         assert_eq!(&*m, &[7]);
         m.append(&mut Members::One(3));
@@ -2279,9 +2316,9 @@ mod tests {
         let q = &p.pieces[i];
         let l = Link {
             largest_area: q.area(),
-            largest_at: (k as u32, i as u32),
             ..Link::EMPTY
-        };
+        }
+        .with_largest(k as u32, i as u32);
         let n = q.normal();
         assert_eq!(l.largest_plane(&cx), (n, q.centroid()));
         assert_eq!(l.reversed().largest_plane(&cx), ([-n[0], -n[1], -n[2]], q.centroid()));
