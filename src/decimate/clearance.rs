@@ -2598,6 +2598,19 @@ mod tests {
         comps[y as usize].links.insert(x, s);
     }
 
+    /// Runs the clean-up on `comps` (`cells` live) unconstrained: (its steps, cells left).
+    fn clean(
+        cx: &CellComplex,
+        comps: &mut [Comp],
+        store: &mut LinkStore,
+        g: &ApertureGate,
+        cells: usize,
+    ) -> (Vec<Step>, usize) {
+        let (mut steps, mut cells) = (Vec::new(), cells);
+        clean_up(cx, comps, store, g, false, &mut steps, &mut cells, &mut |_, _| {});
+        (steps, cells)
+    }
+
     #[test]
     fn clean_up_absorbs_dominated_components_lowest_first_across_the_largest_portal() {
         // 0 and 1 are rooms (peaks 1.0 and 0.9); 2 (peak 0.1) touches both, with the larger
@@ -2607,23 +2620,13 @@ mod tests {
         for (x, y, area) in [(0, 1, 1.0), (0, 2, 0.5), (1, 2, 2.0), (2, 3, 0.3)] {
             link_pair(&mut comps, &mut store, x, y, Link { area, ..Link::EMPTY });
         }
-        let (mut steps, mut cells) = (Vec::new(), 4);
         let (_, cx) = complexes().pop().unwrap();
         let g = ApertureGate {
             dominance: 0.15,
             slab: 0.0,
             ..DEFAULT_APERTURE
         };
-        clean_up(
-            &cx,
-            &mut comps,
-            &mut store,
-            &g,
-            false,
-            &mut steps,
-            &mut cells,
-            &mut |_, _| {},
-        );
+        let (steps, cells) = clean(&cx, &mut comps, &mut store, &g, 4);
         let pairs: Vec<(u32, u32)> = steps.iter().map(|s| (s.a.0, s.b.0)).collect();
         // 3 first (lowest peak; its only neighbour 2 dominates it), then 2 into 1.
         assert_eq!(pairs, vec![(2, 3), (1, 2)]);
@@ -2656,17 +2659,7 @@ mod tests {
         for (x, y, area) in [(0u32, 1u32, 1e6), (0, 2, 1e-9)] {
             link_pair(&mut comps, &mut store, x, y, link(area));
         }
-        let (mut steps, mut cells) = (Vec::new(), 3);
-        clean_up(
-            &cx,
-            &mut comps,
-            &mut store,
-            &DEFAULT_APERTURE,
-            false,
-            &mut steps,
-            &mut cells,
-            &mut |_, _| {},
-        );
+        let (steps, _) = clean(&cx, &mut comps, &mut store, &DEFAULT_APERTURE, 3);
         let pairs: Vec<(u32, u32)> = steps.iter().map(|s| (s.a.0, s.b.0)).collect();
         assert_eq!(pairs, vec![(0, 1)]);
         assert!((steps[0].weight - 0.4).abs() < 1e-12);
@@ -2690,18 +2683,7 @@ mod tests {
             for (x, y, area) in [(0u32, 1u32, 1e6), (0, 2, 1e-9)] {
                 link_pair(&mut fresh, &mut store, x, y, link(area));
             }
-            let (mut steps, mut cells) = (Vec::new(), 3);
-            clean_up(
-                &cx,
-                &mut fresh,
-                &mut store,
-                &g,
-                false,
-                &mut steps,
-                &mut cells,
-                &mut |_, _| {},
-            );
-            assert!(steps.is_empty());
+            assert!(clean(&cx, &mut fresh, &mut store, &g, 3).0.is_empty());
         }
     }
 }
