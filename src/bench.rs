@@ -101,13 +101,8 @@ pub struct Row {
     pub validate: String,
 }
 
-/// Peak resident set size of this process in MB (Linux `VmHWM`), if available.
-pub fn peak_rss_mb() -> Option<f64> {
-    let s = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kb / 1024.0)
-}
+/// Peak resident set size of this process in MiB (Linux `VmHWM`), if available.
+pub use crate::base::mem::peak_rss_mib as peak_rss_mb;
 
 /// Runs one case in this process.
 pub fn run_one(kind: &str, n: usize, validate: bool) -> Option<Row> {

@@ -348,12 +348,7 @@ pub struct Cells {
 
 /// The process's peak resident memory so far in MiB (Linux `VmHWM`; `None` elsewhere):
 /// [`Run::memory`] samples it at the end of each stage.
-pub fn peak_rss_mib() -> Option<f64> {
-    let s = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib / 1024.0)
-}
+pub use crate::base::mem::peak_rss_mib;
 
 /// Returns the allocator's free pages to the system (glibc's `malloc_trim`; nothing
 /// elsewhere): after [`CellComplex::release_inactive`] most of what the removed cells held

@@ -3,6 +3,7 @@
 //!
 //! - [`rng`]: the one random-number generator ([`rng::SplitMix64`]), seedable, so every
 //!   insertion order, generated model and test input is reproducible.
+//! - [`mem`]: the process's peak resident memory (`VmHWM`), which every stage reports.
 //! - [`rigid`]: the one rigid-transform module (rotations by degrees about the coordinate
 //!   axes, the 7°/8°/9° stress rotation of the tests and benchmarks).
 //! - [`vec`](mod@vec): the vector helpers on plain `[f64; 3]` arrays ([`vec::P3`]) and a compensated
@@ -10,6 +11,7 @@
 //!   patterns (the B-rep identifies vertices by their exact coordinates) and every formula
 //!   must keep its operation order (outputs are compared byte for byte).
 
+pub mod mem;
 pub mod rigid;
 pub mod rng;
 pub mod vec;

@@ -588,14 +588,7 @@ pub struct ComplexStats {
     pub memory: Vec<(String, f64)>,
 }
 
-/// The process's peak resident memory so far in MiB (Linux `VmHWM` of
-/// `/proc/self/status`; `None` elsewhere).
-pub(crate) fn peak_rss_mib() -> Option<f64> {
-    let s = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib / 1024.0)
-}
+use crate::base::mem::peak_rss_mib;
 
 impl ComplexStats {
     /// Records a finished stage: its seconds in `timings`, the peak memory in `memory`.
