@@ -686,12 +686,11 @@ impl CellComplex {
         // off there is then cut by that wall in turn, and the wedge behind both walls is
         // closed by the two of them (issue 16, caverns-3 under the centroid split).
         let covered = |part: &ConvexPolygon| {
-            let open = part.subtract(&polys, &relaxed).pieces;
-            if open.iter().any(|q| !super::graph::is_sliver(q, &self.tol)) {
+            let (sa, open) = section_open(part, &plane.n, &polys, &relaxed, &self.tol);
+            if open.iter().any(|&(_, sliver)| !sliver) {
                 return false;
             }
-            let sa = part.area();
-            let open_area: f64 = open.iter().map(|q| q.area()).sum();
+            let open_area: f64 = open.iter().map(|(a, _)| a).sum();
             sa - open_area >= 0.5 * sa
         };
         let sealed = covered(section)
@@ -1285,6 +1284,37 @@ const MAX_RETRY_ROUNDS: usize = 8;
 /// Most cells one plane splits together in [`CellComplex::joint_split`] (the split cell
 /// and the neighbours whose subdivided faces would not be convex), so a cascade is bounded.
 const MAX_JOINT_CUTS: usize = 4;
+
+/// What of a cut's cross-section `section` (of a plane with normal `n`) the polygons
+/// `polys` leave open (subtracted with the thresholds `relaxed`): the section's area and
+/// each open piece's area and whether it is a sliver by `tol` (below its area or narrower
+/// than its sliver width), all measured in the plane. The sealing pass
+/// and `validate` judge a section covered up to cracks by this one test.
+///
+/// In the plane, not in the section's own frame: the section keeps the vertices the cut
+/// classified On, up to the weld distance off the plane, so the Newell normal of a section
+/// thinner than that may point anywhere (see [`ConvexPolygon::subtract_along`]).
+pub(crate) fn section_open(
+    section: &ConvexPolygon,
+    n: &[f64; 3],
+    polys: &[ConvexPolygon],
+    relaxed: &crate::Tolerances,
+    tol: &crate::Tolerances,
+) -> (f64, Vec<(f64, bool)>) {
+    let open = section
+        .subtract_along(n, polys, relaxed)
+        .pieces
+        .iter()
+        .map(|q| {
+            let a = q.area_along(n);
+            (
+                a,
+                a < tol.area_abs() || 2.0 * a < tol.sliver_width() * super::graph::perimeter(q),
+            )
+        })
+        .collect();
+    (section.area_along(n), open)
+}
 
 /// Orthogonal projection of `p` onto `plane`.
 pub(crate) fn project(plane: &Plane, p: &[f64; 3]) -> [f64; 3] {
