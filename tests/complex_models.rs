@@ -510,3 +510,44 @@ fn closed_model_with_a_ridge_over_a_sliver_does_not_leak() {
     );
     assert_eq!(cx.stats.interior_regions, 1);
 }
+
+/// greedy-1 (greedy-merged faces, T-junctions) with vertex noise 1e-7 of the diagonal was
+/// valid only at fallback level 1 (the 210-variant stress table since session 11): "model
+/// polygon 182 crosses the interior of cell 1564 (crossing area 1.499e-6)". The cell is a
+/// slab 3e-6 thick under the ceiling; its cross-section by the plane of a wall ending at
+/// the ceiling is a 1.0e-6 strip whose vertices the cut classified On lie up to 1.8e-6 off
+/// the plane, so the strip's own Newell normal pointed along z, and the coverage test,
+/// subtracting in that normal's projection, found the strip covered by the wall below it.
+/// The sealing pass and the validation now judge coverage by one test in the cutting
+/// plane (`build::section_open`).
+#[test]
+fn thin_section_coverage_is_judged_in_the_cutting_plane() {
+    use portalfind::suite::stress::{Variant, apply};
+    let c = portalfind::suite::case(portalfind::suite::Family::Greedy, 1).expect("greedy-1");
+    let (vs, ps) = apply(Variant::Noise(1e-7), &c.model.vertices, &c.model.polygons);
+    let m = from_soup("greedy-1 noise 1e-7", vs, ps).expect("model");
+    let cx = portalfind::pipeline::complex_of(&m).expect("a valid complex");
+    assert_eq!(cx.stats.tolerance_level, 0, "valid at the model's own tolerances");
+    cx.validate(&m).unwrap_or_else(|e| panic!("complex validate: {e}"));
+}
+
+/// four_room_distorted with vertex noise 1e-5 of the diagonal was valid only at fallback
+/// level 2 (the stress table since session 11): "model polygon 34 crosses the interior of
+/// cell 262 (crossing area 4.8e-9)", because every sealing split of cell 262 by that
+/// polygon's plane was refused. Its neighbour 778 is a sliver between two nearly coplanar
+/// patches (560 and 1360); an earlier split of the cell beyond 1360 by the same plane had
+/// divided 1360 through the chord C–E and left in 778 a flap (C, E, D) lying on 560's
+/// corner (C, D, E), so dividing 560 through C–E made two faces of 778 exact reverses and
+/// used the chord twice. The pair is now cancelled (`build::Pillow`): the piece of 262
+/// borders the cell beyond the flap directly, and the split commits.
+#[test]
+fn zero_volume_fold_in_a_sliver_is_cancelled() {
+    use portalfind::suite::stress::{Variant, apply};
+    let c = portalfind::suite::case(portalfind::suite::Family::Thesis, 2).expect("four_room_distorted");
+    assert_eq!(c.name, "thesis-four_room_distorted");
+    let (vs, ps) = apply(Variant::Noise(1e-5), &c.model.vertices, &c.model.polygons);
+    let m = from_soup("four_room_distorted noise 1e-5", vs, ps).expect("model");
+    let cx = portalfind::pipeline::complex_of(&m).expect("a valid complex");
+    assert_eq!(cx.stats.tolerance_level, 0, "valid at the model's own tolerances");
+    cx.validate(&m).unwrap_or_else(|e| panic!("complex validate: {e}"));
+}

@@ -686,12 +686,11 @@ impl CellComplex {
         // off there is then cut by that wall in turn, and the wedge behind both walls is
         // closed by the two of them (issue 16, caverns-3 under the centroid split).
         let covered = |part: &ConvexPolygon| {
-            let open = part.subtract(&polys, &relaxed).pieces;
-            if open.iter().any(|q| !super::graph::is_sliver(q, &self.tol)) {
+            let (sa, open) = section_open(part, &plane.n, &polys, &relaxed, &self.tol);
+            if open.iter().any(|&(_, sliver)| !sliver) {
                 return false;
             }
-            let sa = part.area();
-            let open_area: f64 = open.iter().map(|q| q.area()).sum();
+            let open_area: f64 = open.iter().map(|(a, _)| a).sum();
             sa - open_area >= 0.5 * sa
         };
         let sealed = covered(section)
@@ -909,7 +908,7 @@ impl CellComplex {
         s: PolyhedronSplit,
         occluders: Vec<Occluder>,
     ) -> Option<(CellId, CellId)> {
-        let (plan, ok, bad) = self.plan_neighbours(c, plane, &s, &[]);
+        let (plan, ok, bad) = self.plan_neighbours(c, plane, &s, &[], true);
         if ok {
             let mut split = Vec::new();
             return Some(self.apply_split(c, plane, s, occluders, plan, &mut split));
@@ -1027,11 +1026,11 @@ impl CellComplex {
                 }
                 // Check failures are collected after applying (below); a structural one
                 // (a neighbour's face that does not straddle) fails the whole split.
-                let (plan, ok, bad_here) = self.plan_neighbours(m, plane, &cut, &members);
+                let (plan, ok, bad_here) = self.plan_neighbours(m, plane, &cut, &members, false);
                 if !ok && bad_here.is_empty() {
                     failed = true;
                 }
-                touched.extend(plan.iter().map(|(o, _)| *o));
+                touched.extend(plan.cells.iter().map(|(o, _)| *o));
                 let occ = if k == 0 { occluders.clone() } else { Vec::new() };
                 let (f, b) = self.apply_split(m, plane, cut, occ, plan, &mut split);
                 for t2 in moved {
@@ -1103,14 +1102,19 @@ impl CellComplex {
     /// the new patches), except across to the cells of `skip` (cut as well); whether all
     /// of them are valid (flat cells, exempt from the geometric check, only need the
     /// subdivision to happen); and the neighbours that subdivided but failed the check.
+    /// With `cancel`, pillows (see [`Pillow`]) the division creates are cancelled in the
+    /// plan (not in `joint_split`, whose undo restores only the members' patches).
     fn plan_neighbours(
         &self,
         c: CellId,
         plane: &Plane,
         s: &PolyhedronSplit,
         skip: &[CellId],
-    ) -> (Vec<(CellId, ConvexPolyhedron)>, bool, Vec<CellId>) {
+        cancel: bool,
+    ) -> (Plan, bool, Vec<CellId>) {
         let mut plan: Vec<(CellId, ConvexPolyhedron)> = Vec::new();
+        // The (neighbour, tag) of every face part this division creates.
+        let mut parts: Vec<(CellId, u32)> = Vec::new();
         let mut ok = true;
         let mut structural = false;
         let mut next_patch = self.patches.len() as u32 + 1; // after the section's patch
@@ -1141,10 +1145,21 @@ impl CellComplex {
                         ok = false;
                         structural = true;
                     }
+                    parts.extend([(other, t), (other, t2)]);
                 }
                 None => {
                     ok = false;
                     structural = true;
+                }
+            }
+        }
+        // Pillows: a part just created that is the exact reverse of another face of its
+        // cell (see `Pillow`) is cancelled with that face.
+        let mut pillows: Vec<Pillow> = Vec::new();
+        if cancel && !structural {
+            for (o, poly) in plan.iter_mut() {
+                while let Some(p) = self.pillow(c, *o, poly, &parts) {
+                    pillows.push(p);
                 }
             }
         }
@@ -1158,7 +1173,40 @@ impl CellComplex {
         if structural {
             bad.clear();
         }
-        (plan, ok, bad)
+        (Plan { cells: plan, pillows }, ok, bad)
+    }
+
+    /// Finds in `poly` (neighbour `o`'s planned polyhedron) a face part created by the
+    /// division (`parts`) whose vertex cycle is the exact reverse (bit for bit) of another
+    /// face's, on a patch to a third cell that no part of this division is on, removes both
+    /// faces and returns the pair.
+    fn pillow(&self, c: CellId, o: CellId, poly: &mut ConvexPolyhedron, parts: &[(CellId, u32)]) -> Option<Pillow> {
+        let n = poly.faces.len();
+        for i in 0..n {
+            let new = poly.tags[i];
+            if !parts.contains(&(o, new)) {
+                continue;
+            }
+            for j in 0..n {
+                let old = poly.tags[j];
+                if j == i || parts.iter().any(|&(_, t)| t == old) {
+                    continue;
+                }
+                let cells = self.patches[old as usize].cells;
+                if cells.contains(&HULL) || cells.contains(&c) || !cells.contains(&o) {
+                    continue;
+                }
+                if reverse_cycles(&poly.faces[i].verts, &poly.faces[j].verts) {
+                    let (hi, lo) = (i.max(j), i.min(j));
+                    for k in [hi, lo] {
+                        poly.faces.remove(k);
+                        poly.tags.remove(k);
+                    }
+                    return Some(Pillow { cell: o, new, old });
+                }
+            }
+        }
+        None
     }
 
     /// Replaces cell `c` by the two pieces of `s` (its cut by `plane`, made with the tag
@@ -1180,7 +1228,7 @@ impl CellComplex {
             return r;
         }
         self.stats.splits_refused += 1;
-        let (plan, _, _) = self.plan_neighbours(c, plane, &s, &[]);
+        let (plan, _, _) = self.plan_neighbours(c, plane, &s, &[], true);
         let mut split = Vec::new();
         self.apply_split(c, plane, s, occluders, plan, &mut split)
     }
@@ -1191,7 +1239,7 @@ impl CellComplex {
         plane: &Plane,
         s: PolyhedronSplit,
         occluders: Vec<Occluder>,
-        plan: Vec<(CellId, ConvexPolyhedron)>,
+        plan: Plan,
         split: &mut Vec<(u32, u32)>,
     ) -> (CellId, CellId) {
         let (fid, bid) = (CellId(self.cells.len() as u32), CellId(self.cells.len() as u32 + 1));
@@ -1258,8 +1306,42 @@ impl CellComplex {
                 (false, false) => {}
             }
         }
-        let _ = &mut front;
-        for (o, poly) in plan {
+        // A pillow's new face lies on a piece (the part of a split patch it holds): that
+        // piece now borders the pillow's third cell directly, over the old patch.
+        for pw in &plan.pillows {
+            let pid = match front.tags.iter().position(|&x| x == pw.new) {
+                Some(k) => {
+                    front.tags[k] = pw.old;
+                    fid
+                }
+                None => {
+                    let k = back.tags.iter().position(|&x| x == pw.new).expect("a pillow's part");
+                    back.tags[k] = pw.old;
+                    bid
+                }
+            };
+            let slot = self.patches[pw.old as usize]
+                .cells
+                .iter()
+                .position(|&x| x == pw.cell)
+                .expect("named");
+            let new_cells = self.patches[pw.new as usize].cells;
+            // The new patch's occluders move over, facing the same cell (the piece, or
+            // across the pillow the third cell instead of the pillow's).
+            let moved: Vec<Occluder> = std::mem::take(&mut self.patches[pw.new as usize].occluders)
+                .into_iter()
+                .map(|o| {
+                    let faced = new_cells[o.faces as usize];
+                    let faces = if faced == pw.cell { 1 - slot } else { slot } as u8;
+                    Occluder { faces, ..o }
+                })
+                .collect();
+            let p = &mut self.patches[pw.old as usize];
+            p.cells[slot] = pid;
+            p.occluders.extend(moved);
+            self.patches[pw.new as usize].alive = false;
+        }
+        for (o, poly) in plan.cells {
             self.cells[o.idx()].set_poly(poly);
         }
         self.cells[c.idx()].alive = false;
@@ -1271,6 +1353,46 @@ impl CellComplex {
 }
 
 type P3Key = [u64; 3];
+
+/// A neighbour's planned polyhedron after its faces were divided by a split, and the
+/// pillows cancelled in it.
+struct Plan {
+    cells: Vec<(CellId, ConvexPolyhedron)>,
+    pillows: Vec<Pillow>,
+}
+
+/// A zero-volume fold of a cell: two of its faces with the same vertices in reverse
+/// order. It arises in a sliver cell between two nearly coplanar patches (the wedge
+/// between the support planes of a noisy quad's two triangles): a split on one side
+/// divides one patch through a chord and leaves, in the sliver, a flap lying on the other
+/// patch's corner with the opposite orientation; when a later split divides the other
+/// patch through the same chord, its corner part and the flap coincide, and the chord
+/// edge is used twice (issue 16, four_room_distorted under noise 1e-5: every division of
+/// cell 262 by its crack's plane was refused). The sliver has no extent there: both faces
+/// leave it, the split piece holding the `new` part takes the `old` patch in the sliver's
+/// place (the two faces are exact reverses, so the piece's face is the third cell's,
+/// reversed), and the `new` patch dies, its occluders moved to the `old` one.
+struct Pillow {
+    /// The sliver cell.
+    cell: CellId,
+    /// The part just created by the division.
+    new: u32,
+    /// The face it cancels with, on a patch between `cell` and a third cell.
+    old: u32,
+}
+
+/// Whether `b` is the cycle `a` reversed, bit for bit (any start).
+fn reverse_cycles(a: &[[f64; 3]], b: &[[f64; 3]]) -> bool {
+    let n = a.len();
+    let bits = |p: &[f64; 3]| p.map(f64::to_bits);
+    if n != b.len() || n < 3 {
+        return false;
+    }
+    let Some(k) = b.iter().position(|p| bits(p) == bits(&a[0])) else {
+        return false;
+    };
+    (0..n).all(|i| bits(&a[i]) == bits(&b[(k + n - i) % n]))
+}
 
 /// Faces of a cell thinner than the sliver width across a polygon's plane take the
 /// polygon's coverage only when their normal is this close to the plane's (|cos| of the
@@ -1285,6 +1407,37 @@ const MAX_RETRY_ROUNDS: usize = 8;
 /// Most cells one plane splits together in [`CellComplex::joint_split`] (the split cell
 /// and the neighbours whose subdivided faces would not be convex), so a cascade is bounded.
 const MAX_JOINT_CUTS: usize = 4;
+
+/// What of a cut's cross-section `section` (of a plane with normal `n`) the polygons
+/// `polys` leave open (subtracted with the thresholds `relaxed`): the section's area and
+/// each open piece's area and whether it is a sliver by `tol` (below its area or narrower
+/// than its sliver width), all measured in the plane. The sealing pass
+/// and `validate` judge a section covered up to cracks by this one test.
+///
+/// In the plane, not in the section's own frame: the section keeps the vertices the cut
+/// classified On, up to the weld distance off the plane, so the Newell normal of a section
+/// thinner than that may point anywhere (see [`ConvexPolygon::subtract_along`]).
+pub(crate) fn section_open(
+    section: &ConvexPolygon,
+    n: &[f64; 3],
+    polys: &[ConvexPolygon],
+    relaxed: &crate::Tolerances,
+    tol: &crate::Tolerances,
+) -> (f64, Vec<(f64, bool)>) {
+    let open = section
+        .subtract_along(n, polys, relaxed)
+        .pieces
+        .iter()
+        .map(|q| {
+            let a = q.area_along(n);
+            (
+                a,
+                a < tol.area_abs() || 2.0 * a < tol.sliver_width() * super::graph::perimeter(q),
+            )
+        })
+        .collect();
+    (section.area_along(n), open)
+}
 
 /// Orthogonal projection of `p` onto `plane`.
 pub(crate) fn project(plane: &Plane, p: &[f64; 3]) -> [f64; 3] {

@@ -10,7 +10,7 @@ use std::collections::{HashMap, VecDeque};
 /// Patches per block of the portal graph's parallel subtraction (see `build_graph`).
 const GRAPH_BLOCK: usize = 1 << 14;
 
-fn perimeter(p: &ConvexPolygon) -> f64 {
+pub(super) fn perimeter(p: &ConvexPolygon) -> f64 {
     let n = p.verts.len();
     (0..n)
         .map(|i| {

@@ -597,12 +597,13 @@ fn crack_crossing(
     let Cut::Split(s) = cell.cut(plane, &relaxed, 0) else {
         return None;
     };
-    let sa = s.section.area();
-    let open = s.section.subtract(std::slice::from_ref(poly), &relaxed).pieces;
-    if open.iter().any(|q| !super::graph::is_sliver(q, tol)) {
+    // In the cutting plane's projection, with areas in that plane: the same coverage test
+    // as the sealing pass (`build::section_covered`).
+    let (sa, open) = super::build::section_open(&s.section, &plane.n, std::slice::from_ref(poly), &relaxed, tol);
+    if open.iter().any(|&(_, sliver)| !sliver) {
         return None;
     }
-    let covered = sa - open.iter().map(|q| q.area()).sum::<f64>();
+    let covered = sa - open.iter().map(|(a, _)| a).sum::<f64>();
     (covered >= 0.5 * sa && covered > 0.0).then_some(covered)
 }
 
