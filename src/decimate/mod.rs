@@ -1254,7 +1254,8 @@ mod tests {
             assert!(same(n, n0) && same(c, c0), "portal {k}");
             // Negated as `sign * x` with sign -1 negates it, and twice is the identity.
             let (nf, _) = l.flipped(true).plane(&cx);
-            assert!(same(nf, n0.map(|x| -1.0 * x)));
+            let sign: f64 = "-1".parse().unwrap();
+            assert!(same(nf, n0.map(|x| sign * x)));
             assert!(same(l.flipped(true).flipped(true).plane(&cx).0, n0));
             checked += 1;
         }
