@@ -147,7 +147,7 @@ fn fallback_finds_pass_through_the_ladder_only() {
 #[test]
 fn run_reports_the_fallback_level() {
     let model = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data/fuzz/pipeline/fallback/delaunay_validate_model_polygon_n_crosses_the_in-0b2b461d.obj");
+        .join("tests/data/fuzz/pipeline/fallback/delaunay_validate_model_polygon_n_crosses_the_in-ef417962.obj");
     let out = std::env::temp_dir().join(format!("portalfind-fallback-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&out);
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_portalfind"))
