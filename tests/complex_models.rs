@@ -551,3 +551,21 @@ fn zero_volume_fold_in_a_sliver_is_cancelled() {
     assert_eq!(cx.stats.tolerance_level, 0, "valid at the model's own tolerances");
     cx.validate(&m).unwrap_or_else(|e| panic!("complex validate: {e}"));
 }
+
+/// greedy-2 with vertex noise 1e-5 of the diagonal was valid only at fallback level 1
+/// (held-out stress seeds since session 13): "model polygon 40 crosses the interior of
+/// cell 4424", because every split of tetrahedron 812 by that wall's plane was refused.
+/// The neighbour's shared face held a T-vertex 3e-5 from the chord's end on an edge the
+/// plane meets at a shallow angle, both within the On band, so dividing the face put that
+/// edge into both parts. The vertex now goes to the part it lies in, the chord ending at
+/// the section's vertex (`ConvexPolyhedron::split_face_along`).
+#[test]
+fn t_vertex_next_to_a_chord_end_goes_to_its_side() {
+    use portalfind::suite::stress::{Variant, apply};
+    let c = portalfind::suite::case(portalfind::suite::Family::Greedy, 2).expect("greedy-2");
+    let (vs, ps) = apply(Variant::Noise(1e-5), &c.model.vertices, &c.model.polygons);
+    let m = from_soup("greedy-2 noise 1e-5", vs, ps).expect("model");
+    let cx = portalfind::pipeline::complex_of(&m).expect("a valid complex");
+    assert_eq!(cx.stats.tolerance_level, 0, "valid at the model's own tolerances");
+    cx.validate(&m).unwrap_or_else(|e| panic!("complex validate: {e}"));
+}

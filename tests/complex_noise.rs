@@ -2,7 +2,7 @@
 //! crosses the interior of cell M", `results/stress/session10_full_attach/`): vertex noise
 //! of 1e-7..1e-5 of the diagonal on the greedy building (seed 1) and noise 1e-5 on the
 //! distorted four-room model. Each must give a complex that passes the full validation
-//! (the two still failing are ignored, with their diagnosis).
+//! (the last two since session 17).
 
 use portalfind::suite::stress::{Variant, apply};
 use portalfind::suite::{Family, case};
@@ -18,10 +18,10 @@ fn validate_variant(family: Family, seed: u64, v: Variant) -> Result<(), String>
     Ok(())
 }
 
-/// Still open: a crack crossing (the cell's section by the support plane is ~1e-6, covered
-/// by polygon 182 for the validation's check but not for the sealing pass's).
+/// A crack crossing (the cell's section by the support plane is ~1e-6) that the validation
+/// judged covered by polygon 182 and the sealing pass did not: both judge it in the cutting
+/// plane now (session 17, `thin_section_coverage_is_judged_in_the_cutting_plane`).
 #[test]
-#[ignore]
 fn greedy_noise_1e7_validates() {
     validate_variant(Family::Greedy, 1, Variant::Noise(1e-7)).unwrap();
 }
@@ -36,11 +36,10 @@ fn greedy_noise_1e5_validates() {
     validate_variant(Family::Greedy, 1, Variant::Noise(1e-5)).unwrap();
 }
 
-/// Still open: the sealing split of cell 262 is refused because the neighbour's copy of the
-/// shared face carries T-vertices on the plane (2e-16 off), so its subdivision duplicates
-/// an existing edge of the neighbour, and cutting the neighbour too is refused.
+/// The sealing split of cell 262 was refused because its subdivision of the neighbour's
+/// face duplicated an edge of the neighbour (a zero-volume fold, cancelled since session 17,
+/// `zero_volume_fold_in_a_sliver_is_cancelled`).
 #[test]
-#[ignore]
 fn four_room_distorted_noise_1e5_validates() {
     validate_variant(Family::Thesis, 2, Variant::Noise(1e-5)).unwrap();
 }

@@ -1141,7 +1141,10 @@ impl CellComplex {
                 // The neighbour's face is reversed: its "front" along `plane` is the same
                 // half-space, so the front part keeps tag t.
                 Some(fi) => {
-                    if nb.split_face_within(fi, plane, s.on_dist, t, t2).is_none() {
+                    if nb
+                        .split_face_along(fi, plane, s.on_dist, &s.section.verts, t, t2)
+                        .is_none()
+                    {
                         ok = false;
                         structural = true;
                     }

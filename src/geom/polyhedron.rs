@@ -604,12 +604,37 @@ impl ConvexPolyhedron {
         front_tag: u32,
         back_tag: u32,
     ) -> Option<usize> {
+        self.split_face_along(i, plane, on_dist, &[], front_tag, back_tag)
+    }
+
+    /// [`split_face_within`](Self::split_face_within) for the face a cut shares with its
+    /// neighbour, whose cross-section has the vertices `chord` (the chord of the face
+    /// ends at some of them). The face may hold, beside the cut cell's vertices, collinear
+    /// T-vertices of its own within `on_dist` of the plane next to a chord end (a vertex
+    /// nanometres from the end on an edge the plane meets at a shallow angle): a run of
+    /// two or more On vertices between a front and a back vertex, which would put the
+    /// run's edges into both parts (a directed edge used twice). In such a run holding
+    /// exactly one vertex of `chord`, that vertex is the chord's end and the others go to
+    /// the side they lie towards, as on the cut cell's edge they lie on (issue 16,
+    /// greedy-2 under noise 1e-5).
+    pub fn split_face_along(
+        &mut self,
+        i: usize,
+        plane: &Plane,
+        on_dist: f64,
+        chord: &[P3],
+        front_tag: u32,
+        back_tag: u32,
+    ) -> Option<usize> {
         let cl = Classifier::with_eps(plane, on_dist);
         let v = self.faces[i].verts.clone();
         let ds: Vec<f64> = v.iter().map(|p| cl.dist(p)).collect();
-        let sides: Vec<Side> = ds.iter().map(|&d| cl.side_of(d)).collect();
+        let mut sides: Vec<Side> = ds.iter().map(|&d| cl.side_of(d)).collect();
         if Classification::from_sides(sides.iter().copied()) != Classification::Straddles {
             return None;
+        }
+        if !chord.is_empty() {
+            settle_on_runs(&v, &mut sides, chord);
         }
         // Keyed by the edge as the neighbouring face sees it (reversed).
         let mut ins: HashMap<(Key, Key), P3> = HashMap::new();
@@ -842,6 +867,45 @@ fn check_small<const N: usize>(faces: &[ConvexPolygon], tol: &Tolerances) -> Res
         }
     }
     Ok(())
+}
+
+/// In each maximal run of two or more On vertices (cyclic) between a Front and a Back
+/// vertex that holds exactly one vertex of `chord` (bit for bit), the vertices before
+/// that one take the side of the vertex before the run, those after it the side of the
+/// vertex after the run (see [`ConvexPolyhedron::split_face_along`]).
+fn settle_on_runs(v: &[P3], sides: &mut [Side], chord: &[P3]) {
+    let n = v.len();
+    let Some(start) = (0..n).find(|&k| sides[k] != Side::On) else {
+        return;
+    };
+    let is_chord = |p: &P3| chord.iter().any(|c| key(c) == key(p));
+    let mut k = 0;
+    while k < n {
+        let a = (start + k) % n;
+        if sides[a] != Side::On {
+            k += 1;
+            continue;
+        }
+        // The run a, a+1, .. of On vertices, bounded by `before` and `after`.
+        let mut len = 0;
+        while sides[(a + len) % n] == Side::On {
+            len += 1;
+        }
+        let (before, after) = (sides[(a + n - 1) % n], sides[(a + len) % n]);
+        if len >= 2 && before != after {
+            let hits: Vec<usize> = (0..len).filter(|&r| is_chord(&v[(a + r) % n])).collect();
+            if let [h] = hits[..] {
+                for r in 0..len {
+                    if r < h {
+                        sides[(a + r) % n] = before;
+                    } else if r > h {
+                        sides[(a + r) % n] = after;
+                    }
+                }
+            }
+        }
+        k += len;
+    }
 }
 
 /// Directed edges of index faces that have no reverse, or `None` when some directed edge
@@ -1358,6 +1422,54 @@ mod tests {
             shatter_checks(&cube(&fr), &fr, &tol, true);
             shatter_checks(&tet(&fr), &fr, &tol, true);
         }
+    }
+
+    /// A unit cube whose top face holds a collinear T-vertex U 1e-7 from its corner Q on
+    /// the edge Q–T, divided by a plane through Q that meets that edge at a shallow angle
+    /// (1e-6): U and Q are both On, between a back and a front vertex. Without the chord
+    /// (the cut cell's section, which ends at Q) both parts take the edge Q–U; along it, U
+    /// goes with T to the front part and the cube stays valid.
+    #[test]
+    fn split_face_along_settles_a_run_of_on_vertices_at_the_chord_end() {
+        let tol = Tolerances::for_scale(1.0);
+        let (a, q, u, t, b) = (
+            [0.0, 0.0, 1.0],
+            [1.0, 0.0, 1.0],
+            [1.0, 1e-7, 1.0],
+            [1.0, 1.0, 1.0],
+            [0.0, 1.0, 1.0],
+        );
+        let faces: Vec<ConvexPolygon> = [
+            vec![[0.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0], [1.0, 0.0, 0.0]],
+            vec![a, q, u, t, b],
+            vec![[0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 1.0, 1.0], [0.0, 1.0, 0.0]],
+            vec![[1.0, 0.0, 0.0], [1.0, 1.0, 0.0], t, u, q],
+            vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], q, a],
+            vec![[0.0, 1.0, 0.0], b, t, [1.0, 1.0, 0.0]],
+        ]
+        .into_iter()
+        .map(ConvexPolygon::new)
+        .collect();
+        let cube = ConvexPolyhedron::from_faces(faces, (0..6).collect());
+        cube.check(&tol).expect("the cube with its T-vertex is valid");
+        // x - 1 + 1e-6 y = 0: through Q, 1e-13 from U, 1e-6 in front at T.
+        let mut plane = Plane::from_points(&q, &[1.0, 0.0, 0.0], &[1.0 - 1e-6, 1.0, 0.0]);
+        if plane.eval(&t) < 0.0 {
+            plane = plane.flipped();
+        }
+        let on = 1e-8;
+        let mut plain = cube.clone();
+        plain.split_face_within(1, &plane, on, 1, 6).expect("straddles");
+        assert!(plain.check(&tol).is_err(), "the edge Q-U in both parts");
+        let mut along = cube.clone();
+        along.split_face_along(1, &plane, on, &[q], 1, 6).expect("straddles");
+        along.check(&tol).unwrap_or_else(|e| panic!("{e}"));
+        let front = &along.faces[1].verts;
+        assert!(
+            front.contains(&u) && front.contains(&t) && front.contains(&q),
+            "{front:?}"
+        );
+        assert!(!along.faces[6].verts.contains(&u), "{:?}", along.faces[6].verts);
     }
 
     #[test]
