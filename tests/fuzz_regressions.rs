@@ -125,7 +125,11 @@ fn run_refuses_what_the_validation_rejects() {
         for sub in Subdivision::ALL {
             if let Ok(cells) = build_cells(&m, &p, &CellSettings::of(sub), &mut |_| {}) {
                 let v = cells.cx.validate(&m);
-                assert!(v.is_ok(), "{sub} {}: run accepts a complex the validation rejects: {v:?}", p.display());
+                assert!(
+                    v.is_ok(),
+                    "{sub} {}: run accepts a complex the validation rejects: {v:?}",
+                    p.display()
+                );
             }
         }
     }
