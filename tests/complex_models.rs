@@ -511,6 +511,20 @@ fn closed_model_with_a_ridge_over_a_sliver_does_not_leak() {
     assert_eq!(cx.stats.interior_regions, 1);
 }
 
+/// The stress suite's `noise` variant of suite case (`family`, `seed`), named `name`, built
+/// as `run` builds it: valid at the model's own tolerances (level 0) and by the full
+/// validation.
+fn noisy_variant_is_valid_at_level_0(family: portalfind::suite::Family, seed: u64, name: &str, noise: f64) {
+    use portalfind::suite::stress::{Variant, apply};
+    let c = portalfind::suite::case(family, seed).expect("a suite case");
+    assert_eq!(c.name, name);
+    let (vs, ps) = apply(Variant::Noise(noise), &c.model.vertices, &c.model.polygons);
+    let m = from_soup(&format!("{name} noise {noise:e}"), vs, ps).expect("model");
+    let cx = portalfind::pipeline::complex_of(&m).expect("a valid complex");
+    assert_eq!(cx.stats.tolerance_level, 0, "valid at the model's own tolerances");
+    cx.validate(&m).unwrap_or_else(|e| panic!("complex validate: {e}"));
+}
+
 /// greedy-1 (greedy-merged faces, T-junctions) with vertex noise 1e-7 of the diagonal was
 /// valid only at fallback level 1 (the 210-variant stress table since session 11): "model
 /// polygon 182 crosses the interior of cell 1564 (crossing area 1.499e-6)". The cell is a
@@ -522,13 +536,7 @@ fn closed_model_with_a_ridge_over_a_sliver_does_not_leak() {
 /// plane (`build::section_open`).
 #[test]
 fn thin_section_coverage_is_judged_in_the_cutting_plane() {
-    use portalfind::suite::stress::{Variant, apply};
-    let c = portalfind::suite::case(portalfind::suite::Family::Greedy, 1).expect("greedy-1");
-    let (vs, ps) = apply(Variant::Noise(1e-7), &c.model.vertices, &c.model.polygons);
-    let m = from_soup("greedy-1 noise 1e-7", vs, ps).expect("model");
-    let cx = portalfind::pipeline::complex_of(&m).expect("a valid complex");
-    assert_eq!(cx.stats.tolerance_level, 0, "valid at the model's own tolerances");
-    cx.validate(&m).unwrap_or_else(|e| panic!("complex validate: {e}"));
+    noisy_variant_is_valid_at_level_0(portalfind::suite::Family::Greedy, 1, "greedy-1-greedy", 1e-7);
 }
 
 /// four_room_distorted with vertex noise 1e-5 of the diagonal was valid only at fallback
@@ -542,14 +550,7 @@ fn thin_section_coverage_is_judged_in_the_cutting_plane() {
 /// borders the cell beyond the flap directly, and the split commits.
 #[test]
 fn zero_volume_fold_in_a_sliver_is_cancelled() {
-    use portalfind::suite::stress::{Variant, apply};
-    let c = portalfind::suite::case(portalfind::suite::Family::Thesis, 2).expect("four_room_distorted");
-    assert_eq!(c.name, "thesis-four_room_distorted");
-    let (vs, ps) = apply(Variant::Noise(1e-5), &c.model.vertices, &c.model.polygons);
-    let m = from_soup("four_room_distorted noise 1e-5", vs, ps).expect("model");
-    let cx = portalfind::pipeline::complex_of(&m).expect("a valid complex");
-    assert_eq!(cx.stats.tolerance_level, 0, "valid at the model's own tolerances");
-    cx.validate(&m).unwrap_or_else(|e| panic!("complex validate: {e}"));
+    noisy_variant_is_valid_at_level_0(portalfind::suite::Family::Thesis, 2, "thesis-four_room_distorted", 1e-5);
 }
 
 /// greedy-2 with vertex noise 1e-5 of the diagonal was valid only at fallback level 1
@@ -561,11 +562,5 @@ fn zero_volume_fold_in_a_sliver_is_cancelled() {
 /// the section's vertex (`ConvexPolyhedron::split_face_along`).
 #[test]
 fn t_vertex_next_to_a_chord_end_goes_to_its_side() {
-    use portalfind::suite::stress::{Variant, apply};
-    let c = portalfind::suite::case(portalfind::suite::Family::Greedy, 2).expect("greedy-2");
-    let (vs, ps) = apply(Variant::Noise(1e-5), &c.model.vertices, &c.model.polygons);
-    let m = from_soup("greedy-2 noise 1e-5", vs, ps).expect("model");
-    let cx = portalfind::pipeline::complex_of(&m).expect("a valid complex");
-    assert_eq!(cx.stats.tolerance_level, 0, "valid at the model's own tolerances");
-    cx.validate(&m).unwrap_or_else(|e| panic!("complex validate: {e}"));
+    noisy_variant_is_valid_at_level_0(portalfind::suite::Family::Greedy, 2, "greedy-2-greedy", 1e-5);
 }
