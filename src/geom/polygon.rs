@@ -392,6 +392,47 @@ impl ConvexPolygon {
         normalize(&self.area_vector())
     }
 
+    /// How far the vertex loop is from a convex polygon, as an area: the area of the
+    /// convex hull of its vertices minus the loop's own (signed) area, both in the
+    /// projection along its Newell normal's dominant axis and scaled to the plane. Zero
+    /// (up to rounding) for a convex loop in counter-clockwise order, and for every
+    /// triangle; positive for a reflex vertex, a loop that crosses itself (a "bowtie":
+    /// its lobes cancel in the signed area) or one that winds twice. The cell check
+    /// ([`crate::geom::polyhedron::check_faces`]) bounds it by the face's perimeter times
+    /// the sliver width, the slack of the coverage invariant, so a face whose loop is
+    /// convex only up to that can never make an open piece larger than its patch.
+    pub fn convexity_defect(&self) -> f64 {
+        if self.verts.len() <= 3 {
+            return 0.0;
+        }
+        // The projection: along the Newell normal, unless one triangle of the fan from the
+        // first vertex is larger than the whole loop, which no convex loop allows (its fan
+        // triangles all have the loop's orientation and sum to it): then the lobes cancel
+        // and the Newell normal may be rounding noise (a symmetric bowtie has none), so
+        // project along that largest fan triangle's normal (none: all collinear).
+        let v = &self.verts;
+        let fan = (1..v.len() - 1)
+            .map(|k| cross(&sub(&v[k], &v[0]), &sub(&v[k + 1], &v[0])))
+            .max_by(|a, b| norm(a).total_cmp(&norm(b)))
+            .unwrap_or([0.0; 3]);
+        let newell = scale(&self.area_vector(), 2.0);
+        let n = if norm(&newell) >= norm(&fan) { newell } else { fan };
+        let Some((i, j, k)) = axes(&n) else { return 0.0 };
+        let fr = Frame2 {
+            o: v[0],
+            i,
+            j,
+            area_factor: norm(&n) / n[k].abs(),
+        };
+        if fr.convex_ccw(self) {
+            return 0.0;
+        }
+        let pts: Vec<[f64; 2]> = self.verts.iter().map(|p| fr.proj(p)).collect();
+        let own = area2(pts.iter().copied());
+        let hull = area2(hull2(pts).into_iter());
+        ((hull - own.abs()) * fr.area_factor).max(0.0)
+    }
+
     /// Area.
     pub fn area(&self) -> f64 {
         norm(&self.area_vector())
@@ -785,6 +826,36 @@ impl Frame2 {
         h
     }
 
+    /// Whether `poly`'s projected loop is convex and counter-clockwise for certain: every
+    /// turn is to the left or straight, and each coordinate changes direction at most
+    /// twice around the loop (which rules out a loop that winds more than once). No
+    /// allocation: the fast path of [`ConvexPolygon::convexity_defect`].
+    fn convex_ccw(&self, poly: &ConvexPolygon) -> bool {
+        let v = &poly.verts;
+        let n = v.len();
+        let p = |k: usize| self.proj(&v[k % n]);
+        let mut flips = [0usize; 2];
+        let mut last = [0.0f64; 2];
+        for k in 0..=n {
+            let (a, b, c) = (p(k), p(k + 1), p(k + 2));
+            let (e, f) = ([b[0] - a[0], b[1] - a[1]], [c[0] - b[0], c[1] - b[1]]);
+            if e[0] * f[1] - e[1] * f[0] < 0.0 {
+                return false;
+            }
+            for d in 0..2 {
+                if e[d] != 0.0 {
+                    if last[d] != 0.0 && (e[d] > 0.0) != (last[d] > 0.0) {
+                        flips[d] += 1;
+                    }
+                    last[d] = e[d];
+                }
+            }
+        }
+        // The loop is walked once plus one edge, so a direction change at the start is
+        // seen once: a convex loop changes each coordinate's direction exactly twice.
+        flips[0] <= 2 && flips[1] <= 2
+    }
+
     fn area3(&self, p: &[V2]) -> f64 {
         area2(p.iter().map(|v| v.uv)).abs() * self.area_factor
     }
@@ -803,6 +874,31 @@ fn area2(pts: impl Iterator<Item = [f64; 2]> + Clone) -> f64 {
         prev = Some(p);
     }
     0.5 * s
+}
+
+/// Convex hull of 2D points, counter-clockwise (Andrew's monotone chain; collinear
+/// points dropped).
+fn hull2(mut pts: Vec<[f64; 2]>) -> Vec<[f64; 2]> {
+    pts.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
+    pts.dedup();
+    if pts.len() < 3 {
+        return pts;
+    }
+    let turn = |o: [f64; 2], a: [f64; 2], b: [f64; 2]| (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]);
+    let mut h: Vec<[f64; 2]> = Vec::with_capacity(2 * pts.len());
+    // Lower chain left to right, then upper chain right to left; each drops its last
+    // point (the next chain's first).
+    for chain in [pts.clone(), pts.into_iter().rev().collect()] {
+        let start = h.len();
+        for p in chain {
+            while h.len() >= start + 2 && turn(h[h.len() - 2], h[h.len() - 1], p) <= 0.0 {
+                h.pop();
+            }
+            h.push(p);
+        }
+        h.pop();
+    }
+    h
 }
 
 fn bbox2(pts: impl Iterator<Item = [f64; 2]>) -> ([f64; 2], [f64; 2]) {
@@ -883,6 +979,51 @@ mod tests {
 
     fn square(fr: &Frame, x0: f64, y0: f64, x1: f64, y1: f64) -> ConvexPolygon {
         poly(fr, &[[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
+    }
+
+    #[test]
+    fn convexity_defect_is_zero_on_convex_loops_and_the_missing_area_otherwise() {
+        for (fr, _) in &frames(1.0) {
+            let s2 = fr.scale * fr.scale;
+            // Convex, also with a straight vertex and a repeated-direction run.
+            for pts in [
+                &[[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [0.0, 1.0]][..],
+                &[[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [2.0, 1.0], [0.0, 1.0]][..],
+                &[[0.0, 0.0], [3.0, 0.0], [4.0, 1.0], [3.0, 2.0], [1.0, 2.0], [-1.0, 1.0]][..],
+            ] {
+                let q = poly(fr, pts);
+                assert!(
+                    q.convexity_defect() <= 1e-8 * s2,
+                    "{}: {}",
+                    fr.name,
+                    q.convexity_defect()
+                );
+            }
+            // Reflex vertex: the notch's area is missing.
+            let notch = poly(fr, &[[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [1.0, 1.0], [0.0, 2.0]]);
+            assert!((notch.convexity_defect() / s2 - 1.0).abs() < 1e-6, "{}", fr.name);
+            // A bowtie (the loop crosses itself): hull 1, signed area 0 (no Newell normal).
+            let bowtie = poly(fr, &[[0.0, 0.0], [1.0, 1.0], [1.0, 0.0], [0.0, 1.0]]);
+            assert!((bowtie.convexity_defect() / s2 - 1.0).abs() < 1e-6, "{}", fr.name);
+            // An uneven bowtie (the fuzz find's face): hull 2, lobes 1.125 and -0.125.
+            let bowtie = poly(fr, &[[0.0, 0.0], [2.0, 2.0], [2.0, 0.0], [0.0, 0.5]]);
+            let d = bowtie.convexity_defect() / s2;
+            assert!(d > 0.5, "{}: {d}", fr.name);
+            // A pentagram: every turn to the left, yet it winds twice.
+            let star: Vec<[f64; 2]> = (0..5)
+                .map(|k| {
+                    let t = std::f64::consts::TAU * (2 * k) as f64 / 5.0;
+                    [t.cos(), t.sin()]
+                })
+                .collect();
+            let star = poly(fr, &star);
+            assert!(
+                star.convexity_defect() > 0.1 * s2,
+                "{}: {}",
+                fr.name,
+                star.convexity_defect()
+            );
+        }
     }
 
     #[test]

@@ -704,6 +704,34 @@ pub fn check_faces(faces: &[ConvexPolygon], ntags: usize, tol: &Tolerances) -> R
     check_general(faces, tol)
 }
 
+/// Every face's vertex loop is convex up to the sliver width
+/// ([`ConvexPolygon::convexity_defect`] at most its perimeter times
+/// [`Tolerances::sliver_width`], plus the area tolerance). The plane tests alone do not
+/// see a face whose loop crosses itself in its plane (a "bowtie"): on a cell thinner
+/// than the weld distance every vertex lies within tolerance of every face plane, yet
+/// its patch's open pieces, cut from a loop that is not convex, can exceed the patch
+/// (fuzz find `d677291f`). Triangles are always convex and skipped.
+fn check_convex_loops(faces: &[ConvexPolygon], tol: &Tolerances) -> Result<(), String> {
+    for (fi, f) in faces.iter().enumerate() {
+        let n = f.verts.len();
+        if n <= 3 {
+            continue;
+        }
+        let d = f.convexity_defect();
+        if d <= 0.0 {
+            continue;
+        }
+        let per: f64 = (0..n).map(|k| norm(&sub(&f.verts[(k + 1) % n], &f.verts[k]))).sum();
+        let slack = per * tol.sliver_width() + 4.0 * tol.area_abs();
+        if d > slack {
+            return Err(format!(
+                "face {fi} is not a convex loop: its vertices' hull exceeds its area by {d:e} (> {slack:e})"
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// [`check_faces`] after the face count tests, for any size.
 fn check_general(faces: &[ConvexPolygon], tol: &Tolerances) -> Result<(), String> {
     // Directed edges, sorted: a count is the length of an equal run (no hashing).
@@ -744,6 +772,7 @@ fn check_general(faces: &[ConvexPolygon], tol: &Tolerances) -> Result<(), String
     if !(vol > 0.0) {
         return Err(format!("volume {vol}"));
     }
+    check_convex_loops(faces, tol)?;
     let verts = vertices_of(faces);
     for (fi, f) in faces.iter().enumerate() {
         let Some(fp) = FacePlane::new(f, tol) else { continue };
@@ -840,6 +869,7 @@ fn check_small<const N: usize>(faces: &[ConvexPolygon], tol: &Tolerances) -> Res
     if !(vol > 0.0) {
         return Err(format!("volume {vol}"));
     }
+    check_convex_loops(faces, tol)?;
     let (mut lo, mut hi, mut m) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3], 0.0f64);
     for v in verts {
         for k in 0..3 {
