@@ -461,6 +461,7 @@ fn e1m1_loads_with_golden_counts() {
         nonplanar_polygons: 0,
         triangles_from_triangulation: 0,
         triangulation_fallbacks: 0,
+        min_area_triangulated: 0,
         open_edges: GOLDEN[5],
         t_junctions: GOLDEN[6],
         non_manifold_edges: GOLDEN[7],

@@ -364,6 +364,7 @@ pub(crate) fn clean(name: &str, file: &str, soup: Soup) -> Result<Model, ModelEr
                 tris,
                 nonplanar,
                 fallback,
+                min_area,
             } => {
                 // A non-planar polygon whose outline crosses itself in projection has no
                 // meaningful triangulation: a best-effort one is a fan of crossing slivers
@@ -379,12 +380,18 @@ pub(crate) fn clean(name: &str, file: &str, soup: Soup) -> Result<Model, ModelEr
                         expected: "a simple polygon (its outline must not cross itself; split it into \
                                    simple polygons)"
                             .into(),
-                        found: format!("{} non-coplanar vertices whose outline crosses itself", vs.len()),
+                        found: format!(
+                            "{} non-coplanar vertices whose outline crosses itself in every projection \
+                             (up to {} such vertices are triangulated by minimum area in 3D)",
+                            vs.len(),
+                            super::triangulate::MIN_AREA_MAX_VERTICES
+                        ),
                     });
                 }
                 report.nonplanar_or_nonconvex_triangulated += 1;
                 report.nonplanar_polygons += nonplanar as usize;
                 report.triangulation_fallbacks += fallback as usize;
+                report.min_area_triangulated += min_area as usize;
                 report.triangles_from_triangulation += tris.len();
                 for t in tris {
                     let src = RawPolygon {

@@ -103,9 +103,13 @@
 //!    `triangles_from_triangulation`): it is projected onto the coordinate plane that drops the
 //!    dominant axis of its Newell normal and ear-clipped with exact 2D orientation tests; the
 //!    triangles keep the polygon's winding, source and material. A non-planar quad whose
-//!    projection is convex is split along its shorter diagonal. A polygon whose projection is
-//!    not simple (self-intersecting, or touching itself) is triangulated best-effort and counted
-//!    in `triangulation_fallbacks`.
+//!    projection is convex is split along its shorter diagonal. A planar polygon whose
+//!    projection is not simple (self-intersecting, or touching itself) is triangulated
+//!    best-effort and counted in `triangulation_fallbacks`. A non-planar one (an exact
+//!    O(n²) test of its projected outline) has no in-plane triangulation: a quad is split
+//!    along its flatter diagonal, a loop of up to 64 vertices is triangulated in 3D by
+//!    minimum total area (`min_area_triangulated`; Barequet & Sharir 1995), and a larger
+//!    one (a face of random vertex indices) is refused, naming the face.
 //! 6. **Unused vertices** (referenced by no surviving polygon) are dropped and the indices
 //!    remapped (`unused_vertices`). So `final_vertices = input_vertices - welded_vertices -
 //!    unused_vertices`.

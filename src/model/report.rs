@@ -32,6 +32,11 @@ pub struct CleaningReport {
     pub triangles_from_triangulation: usize,
     /// Polygons whose projection was not simple, triangulated best-effort.
     pub triangulation_fallbacks: usize,
+    /// Non-planar polygons whose outline crosses itself in projection (no in-plane
+    /// triangulation exists), triangulated in 3D by minimum total area instead; absent
+    /// from `result.json` when 0.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub min_area_triangulated: usize,
     /// Undirected edges used by exactly one polygon.
     pub open_edges: usize,
     /// (vertex, edge) pairs with the vertex strictly inside the edge.
@@ -102,6 +107,13 @@ impl fmt::Display for CleaningReport {
             self.triangulation_fallbacks,
             self.triangles_from_triangulation
         )?;
+        if self.min_area_triangulated > 0 {
+            writeln!(
+                f,
+                "  outlines crossing themselves       {:>9}  (non-planar; triangulated by minimum area in 3D)",
+                self.min_area_triangulated
+            )?;
+        }
         writeln!(f, "diagnostics (not repaired):")?;
         writeln!(f, "  open edges                         {:>9}", self.open_edges)?;
         writeln!(f, "  non-manifold edges                 {:>9}", self.non_manifold_edges)?;
@@ -129,6 +141,11 @@ impl fmt::Display for Translation {
             self.by[0], self.by[1], self.by[2], self.max_abs, self.unit, self.plane, q
         )
     }
+}
+
+/// `serde`'s test for fields left out of `result.json` when 0.
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 #[cfg(test)]

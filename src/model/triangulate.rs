@@ -20,6 +20,10 @@ pub(crate) enum Shape {
         nonplanar: bool,
         /// The projection was not simple; the triangulation is best-effort.
         fallback: bool,
+        /// A non-planar polygon whose outline crosses itself in its projection, with at
+        /// most [`MIN_AREA_MAX_VERTICES`] vertices: triangulated in 3D by minimum total
+        /// area ([`min_area_3d`]) instead.
+        min_area: bool,
     },
 }
 
@@ -96,6 +100,7 @@ pub(crate) fn classify(pts: &[[f64; 3]], poly: &[u32], normal: [f64; 3]) -> Shap
                 tris,
                 nonplanar: !planar,
                 fallback: false,
+                min_area: false,
             };
         }
     }
@@ -111,13 +116,143 @@ pub(crate) fn classify(pts: &[[f64; 3]], poly: &[u32], normal: [f64; 3]) -> Shap
             tris: warped_quad(pts, poly).to_vec(),
             nonplanar: true,
             fallback: false,
+            min_area: false,
+        };
+    }
+    // A non-planar polygon whose outline is not simple in the projection: ear clipping
+    // either got stuck (`fallback`) or, worse, found ears anyway and returned triangles
+    // whose union is not the outline's surface (the projection is the only thing it
+    // sees). Such an outline has no in-plane triangulation; its boundary loop in 3D still
+    // spans a surface, and the minimum-area one is the classic hole filling (Barequet &
+    // Sharir 1995). O(n³), so only up to `MIN_AREA_MAX_VERTICES`; beyond that (a face of
+    // random vertex indices) the caller refuses it.
+    if !planar && !has_repeat && (fallback || !simple_2d(pts, poly, k)) {
+        if n <= MIN_AREA_MAX_VERTICES
+            && let Some(tris) = min_area_3d(pts, poly)
+        {
+            return Shape::Triangulated {
+                tris,
+                nonplanar: true,
+                fallback: false,
+                min_area: true,
+            };
+        }
+        return Shape::Triangulated {
+            tris,
+            nonplanar: true,
+            fallback: true,
+            min_area: false,
         };
     }
     Shape::Triangulated {
         tris,
         nonplanar: !planar,
         fallback,
+        min_area: false,
     }
+}
+
+/// The largest non-planar polygon with a self-crossing outline that [`min_area_3d`]
+/// triangulates (its cost is O(n³): 64 vertices take ~44k triangle areas). A door frame
+/// or window outline under noise has a few dozen at most; larger ones are refused.
+pub(crate) const MIN_AREA_MAX_VERTICES: usize = 64;
+
+/// Whether the outline of `poly` projected by dropping axis `k` is simple: no two
+/// non-adjacent edges meet, and no two adjacent edges overlap (exact orientation tests).
+/// O(n²); only polygons that ear clipping had to cut (non-planar or non-convex) reach it.
+fn simple_2d(pts: &[[f64; 3]], poly: &[u32], k: usize) -> bool {
+    let n = poly.len();
+    let p = |i: usize| &pts[poly[i % n] as usize];
+    // Does point c lie on the closed segment a-b (given the three are collinear)?
+    let between = |a: &[f64; 3], b: &[f64; 3], c: &[f64; 3]| {
+        let (u, v) = proj_axes(k);
+        let within = |x: usize| c[x] >= a[x].min(b[x]) && c[x] <= a[x].max(b[x]);
+        within(u) && within(v)
+    };
+    for i in 0..n {
+        let (a, b) = (p(i), p(i + 1));
+        // Adjacent edges: the next one must not fold back over this one.
+        let c = p(i + 2);
+        if orient2d_proj(a, b, c, k) == 0 && !goes_straight(a, b, c, k) {
+            return false;
+        }
+        for j in i + 2..n {
+            if i == 0 && j == n - 1 {
+                continue; // adjacent through the closing edge
+            }
+            let (c, d) = (p(j), p(j + 1));
+            let (o1, o2) = (orient2d_proj(a, b, c, k), orient2d_proj(a, b, d, k));
+            let (o3, o4) = (orient2d_proj(c, d, a, k), orient2d_proj(c, d, b, k));
+            if o1 * o2 < 0 && o3 * o4 < 0 {
+                return false;
+            }
+            if (o1 == 0 && between(a, b, c))
+                || (o2 == 0 && between(a, b, d))
+                || (o3 == 0 && between(c, d, a))
+                || (o4 == 0 && between(c, d, b))
+            {
+                return false;
+            }
+        }
+    }
+    true
+}
+
+/// The triangulation of the closed 3D loop `poly` (no repeated vertex) with the least
+/// total area, by dynamic programming over its sub-chains: each triangle `(i, m, j)` with
+/// `i < m < j` keeps the loop's winding. A triangle whose corners are exactly collinear
+/// is never used; `None` when no triangulation avoids one. Areas are floating point (a
+/// choice among exact triangles, never a geometric decision); ties go to the smallest
+/// `m`, so a loop whose areas tie exactly may be triangulated differently when its face
+/// starts at another vertex.
+pub(crate) fn min_area_3d(pts: &[[f64; 3]], poly: &[u32]) -> Option<Vec<[u32; 3]>> {
+    let n = poly.len();
+    if n < 3 {
+        return None;
+    }
+    let p = |i: usize| &pts[poly[i] as usize];
+    let area = |i: usize, m: usize, j: usize| {
+        if collinear(p(i), p(m), p(j)) {
+            f64::INFINITY
+        } else {
+            let c = cross(&sub(p(m), p(i)), &sub(p(j), p(i)));
+            dot(&c, &c).sqrt()
+        }
+    };
+    let idx = |i: usize, j: usize| i * n + j;
+    let mut cost = vec![0.0f64; n * n];
+    let mut best = vec![0usize; n * n];
+    for len in 2..n {
+        for i in 0..n - len {
+            let j = i + len;
+            let mut c = f64::INFINITY;
+            let mut bm = usize::MAX;
+            for m in i + 1..j {
+                let v = cost[idx(i, m)] + cost[idx(m, j)] + area(i, m, j);
+                if v < c {
+                    c = v;
+                    bm = m;
+                }
+            }
+            cost[idx(i, j)] = c;
+            best[idx(i, j)] = bm;
+        }
+    }
+    if !cost[idx(0, n - 1)].is_finite() {
+        return None;
+    }
+    let mut tris = Vec::with_capacity(n - 2);
+    let mut stack = vec![(0usize, n - 1)];
+    while let Some((i, j)) = stack.pop() {
+        if j < i + 2 {
+            continue;
+        }
+        let m = best[idx(i, j)];
+        tris.push([poly[i], poly[m], poly[j]]);
+        stack.push((m, j));
+        stack.push((i, m));
+    }
+    Some(tris)
 }
 
 /// The two triangles of a non-planar quad `poly` (four distinct vertices) along the diagonal
@@ -385,6 +520,7 @@ mod tests {
                 tris,
                 nonplanar,
                 fallback,
+                ..
             } => {
                 assert_eq!(tris.len(), 4);
                 assert!(!nonplanar && !fallback);
@@ -457,6 +593,7 @@ mod tests {
                 tris,
                 nonplanar,
                 fallback,
+                ..
             } => {
                 assert!(nonplanar && !fallback);
                 // |0-2|^2 = 5.25, |1-3|^2 = 5: split along 1-3.
@@ -479,6 +616,7 @@ mod tests {
             tris,
             nonplanar,
             fallback,
+            ..
         } = shape
         else {
             panic!("{shape:?}")
@@ -605,6 +743,121 @@ mod tests {
             }
         }
         assert!(triangulated > 100, "only {triangulated} cases triangulated");
+    }
+
+    /// The sum of the triangles' area vectors is the loop's Newell vector (true of any
+    /// triangulation of a closed loop that keeps its winding), and each vertex is used.
+    fn check_loop_surface(pts: &[[f64; 3]], poly: &[u32], tris: &[[u32; 3]]) {
+        assert_eq!(tris.len(), poly.len() - 2);
+        let pn = newell(poly.iter().map(|&i| &pts[i as usize]));
+        let mut sum = [0.0; 3];
+        for t in tris {
+            let a = area2(pts, t);
+            for i in 0..3 {
+                sum[i] += a[i];
+            }
+        }
+        for i in 0..3 {
+            assert!((sum[i] - pn[i]).abs() < 1e-9, "{sum:?} vs {pn:?}");
+        }
+        for v in poly {
+            assert!(tris.iter().any(|t| t.contains(v)), "vertex {v} unused");
+        }
+    }
+
+    #[test]
+    fn min_area_of_a_planar_convex_loop_is_its_area() {
+        let pts: Vec<[f64; 3]> = (0..7)
+            .map(|k| {
+                let t = std::f64::consts::TAU * k as f64 / 7.0;
+                [t.cos(), t.sin(), 0.5]
+            })
+            .collect();
+        let poly: Vec<u32> = (0..7).collect();
+        let tris = min_area_3d(&pts, &poly).unwrap();
+        check_tris(&pts, &poly, &tris);
+        // A loop with three collinear vertices in a row still has a triangulation that
+        // avoids the degenerate triangle.
+        let pts = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [2.0, 0.0, 0.0],
+            [2.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+        ];
+        let tris = min_area_3d(&pts, &[0, 1, 2, 3, 4]).unwrap();
+        check_tris(&pts, &[0, 1, 2, 3, 4], &tris);
+    }
+
+    /// A door frame bent by noise (the thesis-noisy variant's face 613): a U-shaped
+    /// outline whose legs cross in every axis projection once one leg is bent through the
+    /// other. No in-plane triangulation exists; the loop is filled by minimum area.
+    #[test]
+    fn bent_frame_crossing_itself_in_projection_is_filled_by_minimum_area() {
+        // A U of width 0.2 in the plane x = 0 (legs 0.08 wide), then the right leg's top
+        // pulled across the left leg and out of the plane.
+        let mut pts = vec![
+            [0.0, 0.0, 0.0],
+            [0.0, 0.08, 0.0],
+            [0.0, 0.08, 1.0],
+            [0.0, 0.12, 1.0],
+            [0.0, 0.12, 0.0],
+            [0.0, 0.2, 0.0],
+            [0.0, 0.2, 1.1],
+            [0.0, 0.0, 1.1],
+        ];
+        pts[5] = [0.05, -0.05, 0.2];
+        pts[6] = [0.1, -0.05, 1.1];
+        let poly: Vec<u32> = (0..8).collect();
+        let nrm = newell(poly.iter().map(|&i| &pts[i as usize]));
+        let (k, _) = {
+            let mut ax = [0usize, 1, 2];
+            ax.sort_by(|&i, &j| nrm[j].abs().total_cmp(&nrm[i].abs()));
+            (ax[0], ())
+        };
+        assert!(!simple_2d(&pts, &poly, k), "the test's outline must cross itself");
+        match run(&pts, &poly) {
+            Shape::Triangulated {
+                tris,
+                nonplanar,
+                fallback,
+                min_area,
+            } => {
+                assert!(nonplanar && min_area && !fallback);
+                check_loop_surface(&pts, &poly, &tris);
+            }
+            s => panic!("{s:?}"),
+        }
+        // Too many vertices for the O(n³) fill: refused by the caller (best-effort flag).
+        let n = MIN_AREA_MAX_VERTICES + 1;
+        let big: Vec<[f64; 3]> = (0..n)
+            .map(|k| {
+                let t = std::f64::consts::TAU * (2 * k) as f64 / n as f64;
+                [t.cos(), t.sin(), 0.01 * (k % 3) as f64]
+            })
+            .collect();
+        let poly: Vec<u32> = (0..n as u32).collect();
+        match run(&big, &poly) {
+            Shape::Triangulated { fallback, min_area, .. } => assert!(fallback && !min_area),
+            s => panic!("{s:?}"),
+        }
+    }
+
+    #[test]
+    fn simple_outlines_are_simple() {
+        let sq = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]];
+        assert!(simple_2d(&sq, &[0, 1, 2, 3], 2));
+        assert!(!simple_2d(&sq, &[0, 2, 1, 3], 2), "bowtie");
+        // Touching itself: vertex 4 lies on edge 0-1.
+        let t = [
+            [0.0, 0.0, 0.0],
+            [2.0, 0.0, 0.0],
+            [2.0, 2.0, 0.0],
+            [1.0, 2.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 2.0, 0.0],
+        ];
+        assert!(!simple_2d(&t, &[0, 1, 2, 3, 4, 5], 2));
     }
 
     #[test]
