@@ -525,6 +525,20 @@ enum BenchCmd {
         #[arg(long, default_value = "results/scale")]
         out: PathBuf,
     },
+    /// Bounded cost on degenerate input (issue 16): a round room whose floor and ceiling
+    /// are each one convex n-gon, the same with star-shaped (non-convex) caps, and a box
+    /// with one face of n random vertex indices, at growing n, each through `complex
+    /// --no-validate` in a fresh process: wall time, peak memory, load and splitting
+    /// seconds, growth exponent per family. Writes degenerate.csv, degenerate.json and
+    /// table.md into --out.
+    Degenerate {
+        /// Skip sizes above this n (100,000 is the largest).
+        #[arg(long, default_value_t = 100_000)]
+        max_n: usize,
+        /// Output directory.
+        #[arg(long, default_value = "results/degenerate")]
+        out: PathBuf,
+    },
     /// Run one case in this process and print it as JSON (what `bench delaunay` runs in a
     /// child process per case). With the environment variable PF_BENCH_STATS=1 it also
     /// prints the per-phase times and walk/cavity statistics to stderr.
@@ -781,6 +795,18 @@ fn run(cli: Cli) -> Result<()> {
                     .with_context(|| format!("cannot write into {}", out.display()))?;
                 println!("{}", portalfind::suite::scale::table(&rep));
                 println!("wrote {}/{{scale.csv,scale.json,table.md,scale.svg}}", out.display());
+                Ok(())
+            }
+            BenchCmd::Degenerate { max_n, out } => {
+                use portalfind::suite::degenerate;
+                let exe = std::env::current_exe()?;
+                let work = std::env::temp_dir().join(format!("portalfind-degenerate-{}", std::process::id()));
+                let rows = degenerate::run(&exe, max_n, &work, &mut |l| eprintln!("{l}"));
+                let _ = std::fs::remove_dir_all(&work);
+                let rows = rows.context("degenerate benchmark failed")?;
+                degenerate::write_all(&rows, &out).with_context(|| format!("cannot write into {}", out.display()))?;
+                println!("{}", degenerate::table(&rows));
+                println!("wrote {}/{{degenerate.csv,degenerate.json,table.md}}", out.display());
                 Ok(())
             }
             BenchCmd::Stress { quick, seeds, out } => {

@@ -109,7 +109,14 @@
 //!    O(n²) test of its projected outline) has no in-plane triangulation: a quad is split
 //!    along its flatter diagonal, a loop of up to 64 vertices is triangulated in 3D by
 //!    minimum total area (`min_area_triangulated`; Barequet & Sharir 1995), and a larger
-//!    one (a face of random vertex indices) is refused, naming the face.
+//!    one (a face of random vertex indices) is refused, naming the face. A planar convex
+//!    polygon of more than 256 vertices is ear-clipped too (`triangles_from_triangulation`):
+//!    splitting the cells by one polygon clips it against every cell it meets, O(n²) for
+//!    an n-gon. Ear clipping stays near-linear on large polygons: an ear is tested only
+//!    against the non-convex vertices under its bounding box (a uniform grid), and after
+//!    an ear of a polygon of more than 64 vertices it goes on two vertices further
+//!    (earcut's rule), so a convex stretch is halved pass by pass rather than cut into a
+//!    fan of slivers (a non-convex 100k-gon: 58.9 s before, 1.1 s).
 //! 6. **Unused vertices** (referenced by no surviving polygon) are dropped and the indices
 //!    remapped (`unused_vertices`). So `final_vertices = input_vertices - welded_vertices -
 //!    unused_vertices`.

@@ -80,7 +80,7 @@ pub(crate) fn classify(pts: &[[f64; 3]], poly: &[u32], normal: [f64; 3]) -> Shap
         v.sort_unstable();
         v.windows(2).any(|w| w[0] == w[1])
     };
-    if planar && !has_repeat && convex_2d(pts, poly, k, s) {
+    if planar && !has_repeat && convex_2d(pts, poly, k, s) && n <= LARGE_CONVEX_VERTICES {
         return Shape::Keep;
     }
 
@@ -105,7 +105,11 @@ pub(crate) fn classify(pts: &[[f64; 3]], poly: &[u32], normal: [f64; 3]) -> Shap
         }
     }
 
-    let (tris, fallback) = ear_clip(pts, poly, k, s);
+    // A non-planar polygon whose ear clipping gets stuck is never triangulated by it
+    // (below: a quad's diagonal, the minimum-area fill, or a refusal), so it stops there:
+    // the best-effort path costs O(n²) ear tests on an outline that crosses itself
+    // everywhere (a face of 10k random vertex indices: 77 s before the refusal).
+    let (tris, fallback) = ear_clip(pts, poly, k, s, !planar);
     if fallback && !planar && n == 4 && !has_repeat {
         // A warped quad whose outline crosses itself in projection (the
         // vertex noise of a thin face, or a bent quad of a scanned or exported mesh): it is
@@ -126,7 +130,10 @@ pub(crate) fn classify(pts: &[[f64; 3]], poly: &[u32], normal: [f64; 3]) -> Shap
     // spans a surface, and the minimum-area one is the classic hole filling (Barequet &
     // Sharir 1995). O(n³), so only up to `MIN_AREA_MAX_VERTICES`; beyond that (a face of
     // random vertex indices) the caller refuses it.
-    if !planar && !has_repeat && (fallback || !simple_2d(pts, poly, k)) {
+    // (The exact simplicity test is O(n²): it runs up to `MIN_AREA_MAX_VERTICES`, where
+    // its answer picks the minimum-area triangulation; a larger outline is judged by ear
+    // clipping alone, as before, and refused only when that gets stuck.)
+    if !planar && !has_repeat && (fallback || (n <= MIN_AREA_MAX_VERTICES && !simple_2d(pts, poly, k))) {
         if n <= MIN_AREA_MAX_VERTICES
             && let Some(tris) = min_area_3d(pts, poly)
         {
@@ -152,6 +159,14 @@ pub(crate) fn classify(pts: &[[f64; 3]], poly: &[u32], normal: [f64; 3]) -> Shap
     }
 }
 
+/// The most vertices a planar convex polygon keeps as one polygon. Splitting the cells by
+/// a polygon clips it against every cell it meets, so one polygon of n vertices on a
+/// surface of O(n) cells costs O(n²) (a 10k-gon cap: 12 s of splitting); a larger one is
+/// ear-clipped like a non-convex polygon (`triangles_from_triangulation`), which on a
+/// convex outline, going on two vertices after each ear, halves it pass by pass into
+/// triangles no thinner than the outline's own corners need.
+pub(crate) const LARGE_CONVEX_VERTICES: usize = 256;
+
 /// The largest non-planar polygon with a self-crossing outline that [`min_area_3d`]
 /// triangulates (its cost is O(n³): 64 vertices take ~44k triangle areas). A door frame
 /// or window outline under noise has a few dozen at most; larger ones are refused.
@@ -159,7 +174,7 @@ pub(crate) const MIN_AREA_MAX_VERTICES: usize = 64;
 
 /// Whether the outline of `poly` projected by dropping axis `k` is simple: no two
 /// non-adjacent edges meet, and no two adjacent edges overlap (exact orientation tests).
-/// O(n²); only polygons that ear clipping had to cut (non-planar or non-convex) reach it.
+/// O(n²); only non-planar polygons of at most [`MIN_AREA_MAX_VERTICES`] vertices reach it.
 fn simple_2d(pts: &[[f64; 3]], poly: &[u32], k: usize) -> bool {
     let n = poly.len();
     let p = |i: usize| &pts[poly[i % n] as usize];
@@ -330,10 +345,130 @@ fn convex_2d(pts: &[[f64; 3]], poly: &[u32], k: usize, s: i32) -> bool {
     sign_changes(pts, poly, k) == 2
 }
 
+/// Up to this many remaining vertices, an ear is tested against every one of them (any
+/// turn); above it, only against the non-convex ones, found through [`ReflexGrid`].
+const SMALL_EAR_SCAN: usize = 64;
+
+/// The positions of a polygon's vertices whose turn is not convex (`turn <= 0`), bucketed
+/// in a uniform grid over the projection (about one per cell), so that an ear test visits
+/// only those under the ear's bounding box: ear clipping then costs about O(n) tests per
+/// polygon instead of O(n²) (a non-planar or non-convex 100k-gon took about a minute).
+/// A vertex inside a triangle lies within its bounding box, and the cell index is a
+/// monotone function of each coordinate, so the filter never drops a vertex the exact
+/// test would find. In a simple polygon clipping only turns reflex vertices convex; a
+/// vertex that turns reflex (a polygon that is not simple) is inserted when it does.
+struct ReflexGrid {
+    /// The two kept axes ([`proj_axes`]).
+    axes: (usize, usize),
+    /// Projected coordinates (the two kept axes) per position.
+    uv: Vec<[f64; 2]>,
+    lo: [f64; 2],
+    inv: [f64; 2],
+    dim: usize,
+    cells: Vec<Vec<u32>>,
+    inside: Vec<bool>,
+}
+
+impl ReflexGrid {
+    fn new(pts: &[[f64; 3]], poly: &[u32], k: usize, turn: &[i32]) -> Self {
+        let (u, v) = proj_axes(k);
+        let uv: Vec<[f64; 2]> = poly.iter().map(|&i| [pts[i as usize][u], pts[i as usize][v]]).collect();
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for p in &uv {
+            for d in 0..2 {
+                lo[d] = lo[d].min(p[d]);
+                hi[d] = hi[d].max(p[d]);
+            }
+        }
+        let reflex = turn.iter().filter(|&&t| t <= 0).count();
+        let dim = if poly.len() > SMALL_EAR_SCAN {
+            ((reflex as f64).sqrt().ceil() as usize).clamp(1, 1024)
+        } else {
+            1
+        };
+        let inv = [0, 1].map(|d| {
+            let e = hi[d] - lo[d];
+            if e > 0.0 && e.is_finite() { dim as f64 / e } else { 0.0 }
+        });
+        let mut g = ReflexGrid {
+            axes: (u, v),
+            uv,
+            lo,
+            inv,
+            dim,
+            cells: vec![Vec::new(); dim * dim],
+            inside: vec![false; poly.len()],
+        };
+        if poly.len() > SMALL_EAR_SCAN {
+            for (i, &t) in turn.iter().enumerate() {
+                if t <= 0 {
+                    g.insert(i);
+                }
+            }
+        }
+        g
+    }
+
+    fn cell(&self, x: f64, d: usize) -> usize {
+        let c = ((x - self.lo[d]) * self.inv[d]).floor();
+        if c >= 0.0 { (c as usize).min(self.dim - 1) } else { 0 }
+    }
+
+    fn insert(&mut self, i: usize) {
+        if self.inside[i] || self.uv.len() <= SMALL_EAR_SCAN {
+            return;
+        }
+        self.inside[i] = true;
+        let p = self.uv[i];
+        let c = self.cell(p[1], 1) * self.dim + self.cell(p[0], 0);
+        self.cells[c].push(i as u32);
+    }
+
+    /// Whether `f` holds for some position bucketed under the bounding box of `tri`
+    /// (3D points, read on the grid's two axes).
+    fn any_in_box(&self, tri: [&[f64; 3]; 3], mut f: impl FnMut(usize) -> bool) -> bool {
+        let (u, v) = self.axes;
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for p in tri {
+            for (d, x) in [p[u], p[v]].into_iter().enumerate() {
+                lo[d] = lo[d].min(x);
+                hi[d] = hi[d].max(x);
+            }
+        }
+        let (c0, c1) = (self.cell(lo[0], 0), self.cell(hi[0], 0));
+        for r in self.cell(lo[1], 1)..=self.cell(hi[1], 1) {
+            for c in c0..=c1 {
+                for &q in &self.cells[r * self.dim + c] {
+                    let p = self.uv[q as usize];
+                    if p[0] >= lo[0] && p[0] <= hi[0] && p[1] >= lo[1] && p[1] <= hi[1] && f(q as usize) {
+                        return true;
+                    }
+                }
+            }
+        }
+        false
+    }
+}
+
 /// Ear clipping of the projection dropping axis `k`, orientation `s`, with exact predicates.
 /// Returns the triangles and whether the best-effort fallback was needed (projection not
 /// simple). Triangles are never degenerate in the projection, so never degenerate in 3D.
-fn ear_clip(pts: &[[f64; 3]], poly: &[u32], k: usize, s: i32) -> (Vec<[u32; 3]>, bool) {
+/// With `stop_when_stuck`, it returns at the first cycle without an ear (the triangles so
+/// far, and `true`).
+fn ear_clip(pts: &[[f64; 3]], poly: &[u32], k: usize, s: i32, stop_when_stuck: bool) -> (Vec<[u32; 3]>, bool) {
+    ear_clip_with(pts, poly, k, s, true, stop_when_stuck)
+}
+
+/// [`ear_clip`], finding the blockers of a large polygon's ears through the grid or (the
+/// reference the tests compare it with, O(n²)) by walking every remaining vertex.
+fn ear_clip_with(
+    pts: &[[f64; 3]],
+    poly: &[u32],
+    k: usize,
+    s: i32,
+    use_grid: bool,
+    stop_when_stuck: bool,
+) -> (Vec<[u32; 3]>, bool) {
     let n = poly.len();
     let pos = |i: usize| &pts[poly[i] as usize];
     let mut next: Vec<usize> = (0..n).map(|i| (i + 1) % n).collect();
@@ -345,29 +480,52 @@ fn ear_clip(pts: &[[f64; 3]], poly: &[u32], k: usize, s: i32) -> (Vec<[u32; 3]>,
     let mut m = n;
     let mut cur = 0usize;
 
+    // Positions clipped so far, and the grid of candidate blockers (see `ReflexGrid`).
+    let mut removed = vec![false; n];
+    let mut grid = ReflexGrid::new(pts, poly, k, &turn);
+
     // Is some remaining vertex (other than the triangle's own) in triangle (a, b, c)?
     // `closed` counts the triangle's boundary as inside.
-    let blocked = |next: &[usize], turn: &[i32], m: usize, a: usize, b: usize, c: usize, closed: bool| {
+    #[allow(clippy::too_many_arguments)]
+    let blocked = |next: &[usize],
+                   turn: &[i32],
+                   removed: &[bool],
+                   grid: &ReflexGrid,
+                   m: usize,
+                   a: usize,
+                   b: usize,
+                   c: usize,
+                   closed: bool| {
         let (pa, pb, pc) = (pos(a), pos(b), pos(c));
         let (va, vb, vc) = (poly[a], poly[b], poly[c]);
+        let test = |q: usize| {
+            let vq = poly[q];
+            if vq == va || vq == vb || vq == vc {
+                return false;
+            }
+            let pq = pos(q);
+            let o1 = orient2d_proj(pa, pb, pq, k) * s;
+            let o2 = orient2d_proj(pb, pc, pq, k) * s;
+            let o3 = orient2d_proj(pc, pa, pq, k) * s;
+            if closed {
+                o1 >= 0 && o2 >= 0 && o3 >= 0
+            } else {
+                o1 > 0 && o2 > 0 && o3 > 0
+            }
+        };
+        if m > SMALL_EAR_SCAN && use_grid {
+            // In a simple polygon, only a non-convex vertex can be the first to enter an
+            // ear: the remaining ones with `turn <= 0`, from the grid cells under the
+            // triangle's bounding box (the same set as the walk below, in another order;
+            // the answer is whether the set holds one, so it is the walk's).
+            return grid.any_in_box([pa, pb, pc], |q| {
+                !removed[q] && q != a && q != b && q != c && turn[q] <= 0 && test(q)
+            });
+        }
         let mut q = next[c];
         while q != a {
-            let vq = poly[q];
-            // In a simple polygon, only a non-convex vertex can be the first to enter an ear.
-            let candidate = m <= 64 || turn[q] <= 0;
-            if candidate && vq != va && vq != vb && vq != vc {
-                let pq = pos(q);
-                let o1 = orient2d_proj(pa, pb, pq, k) * s;
-                let o2 = orient2d_proj(pb, pc, pq, k) * s;
-                let o3 = orient2d_proj(pc, pa, pq, k) * s;
-                let inside = if closed {
-                    o1 >= 0 && o2 >= 0 && o3 >= 0
-                } else {
-                    o1 > 0 && o2 > 0 && o3 > 0
-                };
-                if inside {
-                    return true;
-                }
+            if (m <= SMALL_EAR_SCAN || turn[q] <= 0) && test(q) {
+                return true;
             }
             q = next[q];
         }
@@ -379,7 +537,7 @@ fn ear_clip(pts: &[[f64; 3]], poly: &[u32], k: usize, s: i32) -> (Vec<[u32; 3]>,
         let mut clip = None;
         if tried < m {
             let (a, c) = (prev[cur], next[cur]);
-            if turn[cur] > 0 && !blocked(&next, &turn, m, a, cur, c, true) {
+            if turn[cur] > 0 && !blocked(&next, &turn, &removed, &grid, m, a, cur, c, true) {
                 clip = Some(cur);
             } else {
                 cur = next[cur];
@@ -392,12 +550,17 @@ fn ear_clip(pts: &[[f64; 3]], poly: &[u32], k: usize, s: i32) -> (Vec<[u32; 3]>,
             None => {
                 // No proper ear in a whole cycle: the projection is not simple. Take the first
                 // convex vertex with an empty open triangle, else any convex vertex.
+                if stop_when_stuck {
+                    return (tris, true);
+                }
                 fallback = true;
                 let mut found = None;
                 for closed_pass in [false, true] {
                     let mut i = cur;
                     for _ in 0..m {
-                        if turn[i] > 0 && (closed_pass || !blocked(&next, &turn, m, prev[i], i, next[i], false)) {
+                        if turn[i] > 0
+                            && (closed_pass || !blocked(&next, &turn, &removed, &grid, m, prev[i], i, next[i], false))
+                        {
                             found = Some(i);
                             break;
                         }
@@ -418,10 +581,22 @@ fn ear_clip(pts: &[[f64; 3]], poly: &[u32], k: usize, s: i32) -> (Vec<[u32; 3]>,
         tris.push([poly[a], poly[clip], poly[c]]);
         next[a] = c;
         prev[c] = a;
+        removed[clip] = true;
         m -= 1;
         turn[a] = turn_of(&prev, &next, a);
         turn[c] = turn_of(&prev, &next, c);
-        cur = c;
+        // A vertex that turns reflex (only in a polygon that is not simple) becomes a
+        // candidate blocker like the others.
+        for x in [a, c] {
+            if turn[x] <= 0 {
+                grid.insert(x);
+            }
+        }
+        // Go on from the vertex after the ear; in a large polygon, from the one after
+        // that (earcut's rule): continuing at `c` clips a convex stretch as a fan around
+        // `a`, whose ever longer slivers cover ever more of the grid (O(n²) on a 100k-gon)
+        // and make sliver cells in the complex.
+        cur = if m > SMALL_EAR_SCAN { next[c] } else { c };
         tried = 0;
     }
     let (a, c) = (prev[cur], next[cur]);
@@ -563,17 +738,49 @@ mod tests {
 
     #[test]
     fn big_convex_fan_with_many_vertices() {
-        // 2000-gon: convex, kept; its reflex-free triangulation path is exercised by a
-        // copy with one vertex pushed inwards.
+        // A convex 256-gon is kept; a convex 2000-gon is triangulated (splitting by one
+        // polygon is quadratic in its vertices), into triangles no thinner than needed:
+        // halving passes, not a fan (whose smallest angle would be ~TAU/2000).
+        let circle = |n: usize| -> Vec<[f64; 3]> {
+            (0..n)
+                .map(|i| {
+                    let a = i as f64 * std::f64::consts::TAU / n as f64;
+                    [a.cos(), a.sin(), 0.0]
+                })
+                .collect()
+        };
+        let kept = circle(LARGE_CONVEX_VERTICES);
+        assert_eq!(run(&kept, &(0..kept.len() as u32).collect::<Vec<_>>()), Shape::Keep);
         let n = 2000;
-        let mut pts: Vec<[f64; 3]> = (0..n)
-            .map(|i| {
-                let a = i as f64 * std::f64::consts::TAU / n as f64;
-                [a.cos(), a.sin(), 0.0]
-            })
-            .collect();
+        let mut pts = circle(n);
         let poly: Vec<u32> = (0..n as u32).collect();
-        assert_eq!(run(&pts, &poly), Shape::Keep);
+        match run(&pts, &poly) {
+            Shape::Triangulated {
+                tris,
+                nonplanar,
+                fallback,
+                min_area,
+            } => {
+                assert!(!nonplanar && !fallback && !min_area);
+                assert_eq!(tris.len(), n - 2);
+                check_tris(&pts, &poly, &tris);
+                // No vertex is a corner of more than about a hundred triangles (a fan's
+                // apex would be of n - 2; the last 64 vertices are clipped as in a small
+                // polygon, so one of them may be a fan's apex there).
+                let mut uses = vec![0usize; n];
+                for t in &tris {
+                    for &v in t {
+                        uses[v as usize] += 1;
+                    }
+                }
+                assert!(
+                    uses.iter().all(|&u| u <= SMALL_EAR_SCAN + 2 * 11),
+                    "{:?}",
+                    uses.iter().max()
+                );
+            }
+            s => panic!("{s:?}"),
+        }
         pts[7] = [0.5, 0.1, 0.0];
         match run(&pts, &poly) {
             Shape::Triangulated { tris, fallback, .. } => {
@@ -608,7 +815,7 @@ mod tests {
         // A bow tie seen from +z, the dominant axis of its Newell normal (0, 0, 1): edge
         // 0-1 crosses edge 2-3; vertices 1 and 3 are lifted out of the plane.
         let pts = [[0.0, 0.0, 0.0], [1.0, 1.0, 0.3], [1.0, 0.0, 0.0], [0.0, 2.0, 0.3]];
-        let (tris, fallback) = ear_clip(&pts, &[0, 1, 2, 3], 2, 1);
+        let (tris, fallback) = ear_clip(&pts, &[0, 1, 2, 3], 2, 1, false);
         assert!(fallback, "the projection must cross itself for this test: {tris:?}");
         let poly = [0u32, 1, 2, 3];
         let shape = run(&pts, &poly);
@@ -858,6 +1065,60 @@ mod tests {
             [0.0, 2.0, 0.0],
         ];
         assert!(!simple_2d(&t, &[0, 1, 2, 3, 4, 5], 2));
+    }
+
+    /// The grid of candidate blockers gives the very triangles of walking every remaining
+    /// vertex (the O(n²) reference), on large stars, combs and random self-crossing
+    /// polygons with coarse (degenerate) coordinates, in every projection orientation.
+    #[test]
+    fn ear_clipping_through_the_grid_equals_the_walk() {
+        let mut rng = Lcg(11);
+        let mut cases: Vec<Vec<[f64; 3]>> = Vec::new();
+        for n in [65usize, 200, 601] {
+            cases.push(
+                (0..n)
+                    .map(|k| {
+                        let t = std::f64::consts::TAU * k as f64 / n as f64;
+                        let r = if k % 2 == 0 { 5.0 } else { 2.0 + rng.next() };
+                        [r * t.cos(), r * t.sin(), 0.25 * rng.next()]
+                    })
+                    .collect(),
+            );
+            // A comb: teeth along x.
+            let teeth = n / 4;
+            let mut comb = vec![[0.0, -1.0, 0.0], [teeth as f64, -1.0, 0.0]];
+            for t in (0..teeth).rev() {
+                let x = t as f64;
+                comb.extend([
+                    [x + 0.75, 0.0, 0.0],
+                    [x + 0.75, 3.0, 0.0],
+                    [x + 0.25, 3.0, 0.0],
+                    [x + 0.25, 0.0, 0.0],
+                ]);
+            }
+            cases.push(comb);
+            cases.push(
+                (0..n)
+                    .map(|_| {
+                        let q = |x: f64| (x * 16.0).floor();
+                        [q(rng.next()), q(rng.next()), q(rng.next())]
+                    })
+                    .collect(),
+            );
+        }
+        let mut compared = 0;
+        for pts in &cases {
+            let poly: Vec<u32> = (0..pts.len() as u32).collect();
+            for k in 0..3 {
+                for s in [1, -1] {
+                    let grid = ear_clip_with(pts, &poly, k, s, true, false);
+                    let walk = ear_clip_with(pts, &poly, k, s, false, false);
+                    assert_eq!(grid, walk, "{} vertices, axis {k}, orientation {s}", pts.len());
+                    compared += 1;
+                }
+            }
+        }
+        assert_eq!(compared, 54);
     }
 
     #[test]

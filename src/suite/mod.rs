@@ -53,6 +53,7 @@
 pub mod bench;
 pub mod buildings;
 pub mod caverns;
+pub mod degenerate;
 pub mod estimators;
 pub mod fuzz;
 pub mod metrics;

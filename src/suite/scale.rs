@@ -121,18 +121,19 @@ pub fn loglog_slope(pts: &[(f64, f64)]) -> Option<f64> {
 }
 
 /// A finished child: wall seconds, CPU seconds (user + system, all threads), peak RSS
-/// (MiB), exit success, stdout.
-struct Child {
-    secs: f64,
-    cpu: f64,
-    peak_mib: f64,
-    ok: bool,
-    stdout: String,
+/// (MiB), exit success, stdout and stderr.
+pub(crate) struct Child {
+    pub(crate) secs: f64,
+    pub(crate) cpu: f64,
+    pub(crate) peak_mib: f64,
+    pub(crate) ok: bool,
+    pub(crate) stdout: String,
+    pub(crate) stderr: String,
 }
 
 /// Runs `exe args` to completion (with `RAYON_NUM_THREADS` set when `threads` is given);
 /// the peak memory is the child's own (`wait4`).
-fn run_child(exe: &Path, args: &[&std::ffi::OsStr], threads: Option<usize>) -> std::io::Result<Child> {
+pub(crate) fn run_child(exe: &Path, args: &[&std::ffi::OsStr], threads: Option<usize>) -> std::io::Result<Child> {
     use std::io::Read;
     let t0 = Instant::now();
     let mut cmd = Command::new(exe);
@@ -142,12 +143,22 @@ fn run_child(exe: &Path, args: &[&std::ffi::OsStr], threads: Option<usize>) -> s
     let mut child = cmd
         .args(args)
         .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
         .spawn()?;
+    // Standard error on its own thread, so that neither pipe can fill while the other
+    // is read.
+    let err = child.stderr.take().map(|mut e| {
+        std::thread::spawn(move || {
+            let mut s = String::new();
+            let _ = e.read_to_string(&mut s);
+            s
+        })
+    });
     let mut stdout = String::new();
     if let Some(mut out) = child.stdout.take() {
         out.read_to_string(&mut stdout)?;
     }
+    let stderr = err.and_then(|h| h.join().ok()).unwrap_or_default();
     let pid = child.id() as libc::pid_t;
     let mut status: libc::c_int = 0;
     // SAFETY: a zeroed rusage is a valid out-parameter; `pid` is our own unwaited child.
@@ -166,6 +177,7 @@ fn run_child(exe: &Path, args: &[&std::ffi::OsStr], threads: Option<usize>) -> s
         peak_mib: usage.ru_maxrss as f64 / 1024.0,
         ok,
         stdout,
+        stderr,
     })
 }
 
