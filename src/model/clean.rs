@@ -381,7 +381,7 @@ pub(crate) fn clean(name: &str, file: &str, soup: Soup) -> Result<Model, ModelEr
                                    simple polygons)"
                             .into(),
                         found: format!(
-                            "{} non-coplanar vertices whose outline crosses itself in every projection \
+                            "{} non-coplanar vertices whose outline crosses itself in projection \
                              (up to {} such vertices are triangulated by minimum area in 3D)",
                             vs.len(),
                             super::triangulate::MIN_AREA_MAX_VERTICES

@@ -218,7 +218,10 @@ pub fn table(rows: &[Row]) -> String {
         let outcome = if r.ok {
             "ok".to_string()
         } else {
-            format!("refused: {}", r.error.chars().take(90).collect::<String>())
+            // The message after the file's name and line (the temporary path says nothing).
+            let why = r.error.split_once(".obj:").map_or(r.error.as_str(), |(_, w)| w);
+            let why = why.split_once(": ").map_or(why, |(_, w)| w);
+            format!("refused: {}", why.chars().take(110).collect::<String>())
         };
         let _ = writeln!(
             s,
