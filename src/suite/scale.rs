@@ -149,9 +149,9 @@ pub(crate) fn run_child(exe: &Path, args: &[&std::ffi::OsStr], threads: Option<u
     // is read.
     let err = child.stderr.take().map(|mut e| {
         std::thread::spawn(move || {
-            let mut s = String::new();
-            let _ = e.read_to_string(&mut s);
-            s
+            let mut b = Vec::new();
+            let _ = e.read_to_end(&mut b);
+            String::from_utf8_lossy(&b).into_owned()
         })
     });
     let mut stdout = String::new();
