@@ -21,6 +21,7 @@
 
 use crate::model::write::write_atomic;
 use crate::suite::scale::{loglog_slope, parse_stages, run_child};
+use crate::suite::util::Rng;
 use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -90,8 +91,8 @@ pub fn model(family: &str, n: usize) -> (String, usize) {
         }
         "random-index face" => {
             // A box room 10 x 10 x 3 facing inwards, then n points inside it and one face
-            // through them in a fixed pseudo-random order (a linear congruential
-            // generator: the same file on every machine).
+            // through them in a fixed pseudo-random order (the suite's seeded generator,
+            // seed n: the same file on every machine).
             let b = [
                 [0.0, 0.0, 0.0],
                 [10.0, 0.0, 0.0],
@@ -115,21 +116,14 @@ pub fn model(family: &str, n: usize) -> (String, usize) {
             ] {
                 let _ = writeln!(s, "f {} {} {} {}", f[0], f[1], f[2], f[3]);
             }
-            let mut x: u64 = 0x9e37_79b9_7f4a_7c15;
-            let mut next = || {
-                x = x
-                    .wrapping_mul(6_364_136_223_846_793_005)
-                    .wrapping_add(1_442_695_040_888_963_407);
-                (x >> 11) as f64 / (1u64 << 53) as f64
-            };
+            let mut rng = Rng::new(n as u64);
             for _ in 0..n {
-                let p = [1.0 + 8.0 * next(), 1.0 + 8.0 * next(), 0.5 + 2.0 * next()];
+                let p = [rng.range(1.0, 9.0), rng.range(1.0, 9.0), rng.range(0.5, 2.5)];
                 let _ = writeln!(s, "v {:?} {:?} {:?}", p[0], p[1], p[2]);
             }
             let mut order: Vec<usize> = (0..n).collect();
             for i in (1..n).rev() {
-                let j = (next() * (i + 1) as f64) as usize % (i + 1);
-                order.swap(i, j);
+                order.swap(i, rng.below(i + 1));
             }
             s.push('f');
             for i in order {
