@@ -149,9 +149,10 @@ pub struct CellField {
 /// minimum is missed by at most that), and at least 1/64 of the segment. `dp` is the
 /// clearance at `p` (same bits as `field.distance(p)`). The marching stops at the first
 /// sample at or below `floor`: the result is exact when above `floor`, else some value at
-/// or below `floor` (callers that only take a maximum with `floor` need no more). Each sample's query is bounded by the previous sample's
-/// clearance plus the step (the field is 1-Lipschitz), which prunes the search without
-/// changing its answer ([`ClearanceField::distance_below`]).
+/// or below `floor` (callers that only take a maximum with `floor` need no more). Each
+/// sample's query is bounded by the previous sample's clearance plus the step (the field
+/// is 1-Lipschitz), which prunes the search without changing its answer, and stops at the
+/// first triangle at or below `floor` ([`ClearanceField::distance_above`]).
 fn segment_min_from(field: &ClearanceField, p: [f64; 3], dp: f64, q: [f64; 3], floor: f64) -> f64 {
     let d = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
     let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
@@ -165,7 +166,7 @@ fn segment_min_from(field: &ClearanceField, p: [f64; 3], dp: f64, q: [f64; 3], f
         }
         let t2 = (t + (0.25 * c / len).max(1.0 / 64.0)).min(1.0);
         let x = [p[0] + d[0] * t2, p[1] + d[1] * t2, p[2] + d[2] * t2];
-        c = field.distance_below(x, c + (t2 - t) * len);
+        c = field.distance_above(x, floor, c + (t2 - t) * len);
         t = t2;
     }
 }
@@ -186,7 +187,8 @@ fn best_sample(field: &ClearanceField, cell: &Cell) -> (f64, [f64; 3]) {
         let d = if x == g {
             dg
         } else {
-            field.distance_below(x, dg + dist(g, x))
+            // Only a value above the best so far matters (`d > bv`).
+            field.distance_above(x, bv, dg + dist(g, x))
         };
         if d > bv {
             (bv, bp) = (d, x);
@@ -216,14 +218,17 @@ fn portal_passage(
             break;
         }
         let m = piece.centroid();
-        let dm = field.distance(m);
+        // Only values above `s` matter (a value at or below it is skipped, and `s` only
+        // rises), so the queries stop at the first triangle at or below `s`; `dm` is then
+        // still an upper bound of the centroid's clearance.
+        let dm = field.distance_above(m, s, f64::INFINITY);
         let ys = std::iter::once(m).chain(piece.verts.iter().map(|&v| mid(m, v)));
         for y in ys {
             // Bounded by the piece centroid's clearance plus the way from it.
             let dy = if y == m {
                 dm
             } else {
-                field.distance_below(y, dm + dist(m, y))
+                field.distance_above(y, s, dm + dist(m, y))
             };
             // Upper bound first: a path is never higher than any of its points.
             if dy <= s {

@@ -136,7 +136,7 @@ impl ClearanceField {
 
     /// Distance from `p` to the nearest triangle (`+inf` for an empty model).
     pub fn distance(&self, p: P3) -> f64 {
-        self.search(p, f64::INFINITY).unwrap_or(f64::INFINITY)
+        self.search(p, f64::INFINITY, -1.0).unwrap_or(f64::INFINITY)
     }
 
     /// [`ClearanceField::distance`] given an upper bound `ub` of it (e.g. the distance at a
@@ -151,9 +151,39 @@ impl ClearanceField {
             return self.distance(p);
         }
         let b = ub * MARGIN;
-        match self.search(p, b * b) {
+        match self.search(p, b * b, -1.0) {
             Some(d) => d,
             None => self.distance(p),
+        }
+    }
+
+    /// [`ClearanceField::distance_below`] for a caller that only needs the distance when it
+    /// is above `lb`: the same bits as `distance(p)` when that is above `lb`, else some
+    /// value `v` with `distance(p) <= v <= lb` (the distance to a triangle found at or
+    /// below `lb`, where the search stops). Every answer above `lb` is exact, so a caller
+    /// that treats all values at or below `lb` alike (a maximum with `lb`, a test `> lb`)
+    /// decides as with `distance_below`, at the price of a search that stops at the first
+    /// triangle at or below `lb` (often the warm start's). `lb <= 0` or NaN never stops early.
+    pub fn distance_above(&self, p: P3, lb: f64, ub: f64) -> f64 {
+        // The same rounding margin as `distance_below`'s, here also on the stop: the
+        // squared threshold is a little below `lb²`, so the square root of a distance that
+        // stops the search is at or below `lb` whatever the rounding.
+        const MARGIN: f64 = 1.0 + 1.0 / (1u64 << 40) as f64;
+        let stop2 = if lb > 0.0 && lb.is_finite() {
+            lb * lb / MARGIN
+        } else {
+            -1.0
+        };
+        let bound2 = if ub.is_finite() && ub >= 0.0 {
+            let b = ub * MARGIN;
+            b * b
+        } else {
+            f64::INFINITY
+        };
+        match self.search(p, bound2, stop2) {
+            Some(d) => d,
+            None if bound2.is_finite() => self.search(p, f64::INFINITY, stop2).unwrap_or(f64::INFINITY),
+            None => f64::INFINITY,
         }
     }
 
@@ -163,8 +193,9 @@ impl ClearanceField {
     /// the minimum of the point–triangle distances over all triangles, whatever the bound,
     /// when that minimum is below it. The best so far starts at this thread's hint
     /// triangle ([`HINT`], one of the candidates), and the nearest triangle found becomes
-    /// the next hint.
-    fn search(&self, p: P3, bound2: f64) -> Option<f64> {
+    /// the next hint. The search stops as soon as the best so far is at or below `stop2`
+    /// (a negative `stop2` never stops it), returning that triangle's distance.
+    fn search(&self, p: P3, bound2: f64, stop2: f64) -> Option<f64> {
         if self.nodes.is_empty() {
             return None;
         }
@@ -176,6 +207,9 @@ impl ClearanceField {
             if d < best {
                 best = d;
             }
+        }
+        if best <= stop2 {
+            return Some(best.sqrt());
         }
         // Depth-first, the nearer child first: at most one pending sibling per level, and
         // the tree is below `SAH_DEPTH + 32` levels (median splits past `SAH_DEPTH`).
@@ -201,6 +235,9 @@ impl ClearanceField {
                             best = d;
                             arg = n.first + i as u32;
                         }
+                    }
+                    if best <= stop2 {
+                        break;
                     }
                 } else {
                     let (l, r) = (ni + 1, n.first);
@@ -487,11 +524,22 @@ mod tests {
                         "query {i}, bound {ub}"
                     );
                 }
+                // `distance_above`: exact above the floor, else in [distance, floor].
+                for lb in [want * 0.5, want, want * 1.5, 0.0] {
+                    for ub in [want * 1.25, f64::INFINITY] {
+                        let v = f.distance_above(p, lb, ub);
+                        if want > lb {
+                            assert_eq!(v.to_bits(), want.to_bits(), "query {i}, floor {lb}");
+                        } else {
+                            assert!(want <= v && v <= lb, "query {i}: {want} {v} {lb}");
+                        }
+                    }
+                }
                 // A hint planted right before a bounded search.
                 HINT.with(|h| h.set((rng.f() * n as f64) as u32));
                 let b2 = (want * 1.1) * (want * 1.1);
                 assert_eq!(
-                    f.search(p, b2).map(f64::to_bits),
+                    f.search(p, b2, -1.0).map(f64::to_bits),
                     reference_search(&f, p, b2).map(f64::to_bits),
                     "query {i}, bounded"
                 );
