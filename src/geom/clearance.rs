@@ -126,11 +126,11 @@ impl ClearanceField {
 
     /// The field of a triangle list.
     pub fn from_triangles(mut tris: Vec<[P3; 3]>) -> Self {
-        let mut nodes = Vec::with_capacity(2 * tris.len() / LEAF + 1);
-        if !tris.is_empty() {
-            let n = tris.len();
-            build(&mut tris, 0, n, 0, &mut nodes);
-        }
+        let nodes = if tris.is_empty() {
+            Vec::new()
+        } else {
+            build_par(&mut tris, 0, 0, PAR_MIN)
+        };
         ClearanceField { tris, nodes }
     }
 
@@ -369,7 +369,52 @@ fn sah_split(tris: &mut [[P3; 3]], clo: P3, chi: P3) -> Option<usize> {
     (i > 0 && i < tris.len()).then_some(i)
 }
 
-fn build(tris: &mut [[P3; 3]], first: usize, end: usize, depth: usize, nodes: &mut Vec<Node>) -> u32 {
+/// Ranges of at least this many triangles build their two subtrees in parallel.
+const PAR_MIN: usize = 1 << 15;
+
+/// [`build_at`] of the whole of `tris` (which starts at triangle `base` of the field), its
+/// two subtrees built in parallel (rayon) while they hold at least `par_min` ([`PAR_MIN`])
+/// triangles: the nodes in the same depth-first order with the same bits as one
+/// [`build_at`] gives (each subtree is built into its own list, then its right-child
+/// indices are shifted by where the list lands), so the tree does not depend on the number
+/// of threads.
+fn build_par(tris: &mut [[P3; 3]], base: usize, depth: usize, par_min: usize) -> Vec<Node> {
+    let n = tris.len();
+    if n < par_min {
+        let mut nodes = Vec::with_capacity(2 * n / LEAF + 1);
+        build_at(tris, base, 0, n, depth, &mut nodes);
+        return nodes;
+    }
+    let (me, split) = node_and_split(tris, base, 0, n, depth);
+    let Some(mid) = split else {
+        return vec![me];
+    };
+    let (l, r) = tris.split_at_mut(mid);
+    let (left, right) = rayon::join(
+        || build_par(l, base, depth + 1, par_min),
+        || build_par(r, base + mid, depth + 1, par_min),
+    );
+    let mut nodes = Vec::with_capacity(1 + left.len() + right.len());
+    nodes.push(Node {
+        first: (1 + left.len()) as u32,
+        count: 0,
+        ..me
+    });
+    for list in [left, right] {
+        let at = nodes.len() as u32;
+        nodes.extend(list.into_iter().map(|mut x| {
+            if x.count == 0 {
+                x.first += at;
+            }
+            x
+        }));
+    }
+    nodes
+}
+
+/// The node of `tris[first..end]` (a leaf's triangles are `base + first..` of the field)
+/// and, unless it is a leaf, where the range splits (its triangles partitioned in place).
+fn node_and_split(tris: &mut [[P3; 3]], base: usize, first: usize, end: usize, depth: usize) -> (Node, Option<usize>) {
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
     let mut clo = [f64::INFINITY; 3];
@@ -382,15 +427,14 @@ fn build(tris: &mut [[P3; 3]], first: usize, end: usize, depth: usize, nodes: &m
             chi[k] = chi[k].max(c[k]);
         }
     }
-    let me = nodes.len() as u32;
-    nodes.push(Node {
+    let me = Node {
         lo,
         hi,
-        first: first as u32,
+        first: (base + first) as u32,
         count: (end - first) as u32,
-    });
+    };
     if end - first <= LEAF {
-        return me;
+        return (me, None);
     }
     let sah = if depth < SAH_DEPTH {
         sah_split(&mut tris[first..end], clo, chi)
@@ -409,10 +453,22 @@ fn build(tris: &mut [[P3; 3]], first: usize, end: usize, depth: usize, nodes: &m
             mid
         }
     };
-    build(tris, first, mid, depth + 1, nodes);
-    let right = build(tris, mid, end, depth + 1, nodes);
-    nodes[me as usize].first = right;
-    nodes[me as usize].count = 0;
+    (me, Some(mid))
+}
+
+/// Appends the subtree of `tris[first..end]` to `nodes` in depth-first order (a node, its
+/// left subtree, its right subtree; an inner node's `first` is its right child's index in
+/// `nodes`): its root's index.
+fn build_at(tris: &mut [[P3; 3]], base: usize, first: usize, end: usize, depth: usize, nodes: &mut Vec<Node>) -> u32 {
+    let (node, split) = node_and_split(tris, base, first, end, depth);
+    let me = nodes.len() as u32;
+    nodes.push(node);
+    if let Some(mid) = split {
+        build_at(tris, base, first, mid, depth + 1, nodes);
+        let right = build_at(tris, base, mid, end, depth + 1, nodes);
+        nodes[me as usize].first = right;
+        nodes[me as usize].count = 0;
+    }
     me
 }
 
@@ -436,6 +492,41 @@ mod tests {
         }
         fn f(&mut self) -> f64 {
             self.0.unit()
+        }
+    }
+
+    #[test]
+    fn parallel_build_gives_the_serial_tree_bit_for_bit() {
+        let mut rng = Rng::new(7);
+        // Clustered triangles (flat slabs and a cloud), so SAH and median splits both occur.
+        let mut tris = Vec::new();
+        for i in 0..3000 {
+            let c = [
+                rng.f() * 10.0,
+                rng.f() * 10.0,
+                if i % 3 == 0 { 0.0 } else { rng.f() * 10.0 },
+            ];
+            let t = [
+                c,
+                add_scaled(c, [rng.f(), rng.f(), 0.0], 0.3),
+                add_scaled(c, [0.0, rng.f(), rng.f()], 0.3),
+            ];
+            tris.push(t);
+        }
+        let key = |n: &Node| (n.lo.map(f64::to_bits), n.hi.map(f64::to_bits), n.first, n.count);
+        let mut serial_tris = tris.clone();
+        let mut serial = Vec::new();
+        let n = tris.len();
+        build_at(&mut serial_tris, 0, 0, n, 0, &mut serial);
+        for par_min in [1, 5, 64, 1000, n + 1] {
+            let mut t = tris.clone();
+            let nodes = build_par(&mut t, 0, 0, par_min);
+            assert_eq!(nodes.len(), serial.len(), "par_min {par_min}");
+            assert!(
+                nodes.iter().zip(&serial).all(|(a, b)| key(a) == key(b)),
+                "par_min {par_min}"
+            );
+            assert!(t.iter().zip(&serial_tris).all(|(a, b)| a == b), "par_min {par_min}");
         }
     }
 
