@@ -153,7 +153,13 @@ pub struct CellField {
 /// sample's query is bounded by the previous sample's clearance plus the step (the field
 /// is 1-Lipschitz), which prunes the search without changing its answer, and stops at the
 /// first triangle at or below `floor` ([`ClearanceField::distance_above`]).
-fn segment_min_from(field: &ClearanceField, p: [f64; 3], dp: f64, q: [f64; 3], floor: f64) -> f64 {
+///
+/// `dq` is the clearance at `q` when the caller knows it (NaN when not): exact, or an
+/// answer of `distance_above(q, f, ·)` with `f <= floor`. The last sample lands on `q`
+/// itself (bit for bit) almost always; its query is then skipped for `dq`, which is what
+/// the query would answer (the same bits when above `floor`; at or below `floor` both
+/// stop the marching with a value at or below `floor`).
+fn segment_min_from(field: &ClearanceField, p: [f64; 3], dp: f64, q: [f64; 3], dq: f64, floor: f64) -> f64 {
     let d = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
     let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
     let mut t = 0.0;
@@ -166,7 +172,11 @@ fn segment_min_from(field: &ClearanceField, p: [f64; 3], dp: f64, q: [f64; 3], f
         }
         let t2 = (t + (0.25 * c / len).max(1.0 / 64.0)).min(1.0);
         let x = [p[0] + d[0] * t2, p[1] + d[1] * t2, p[2] + d[2] * t2];
-        c = field.distance_above(x, floor, c + (t2 - t) * len);
+        c = if !dq.is_nan() && x.map(f64::to_bits) == q.map(f64::to_bits) {
+            dq
+        } else {
+            field.distance_above(x, floor, c + (t2 - t) * len)
+        };
         t = t2;
     }
 }
@@ -207,7 +217,7 @@ fn portal_passage(
     field: &ClearanceField,
     pieces: &[crate::geom::ConvexPolygon],
     (da, xa): (f64, [f64; 3]),
-    xb: [f64; 3],
+    (db, xb): (f64, [f64; 3]),
 ) -> f64 {
     let mut s = 0.0f64;
     for piece in pieces {
@@ -235,11 +245,11 @@ fn portal_passage(
                 continue;
             }
             // Each leg only matters above `s` (the result is `max(s, min(legs))`).
-            let first = segment_min_from(field, xa, da, y, s);
+            let first = segment_min_from(field, xa, da, y, dy, s);
             if first <= s {
                 continue;
             }
-            s = s.max(first.min(segment_min_from(field, y, dy, xb, s)));
+            s = s.max(first.min(segment_min_from(field, y, dy, xb, db, s)));
             if s >= da {
                 break;
             }
@@ -282,7 +292,7 @@ impl CellField {
                 if !(cx.cells[a.idx()].active() && cx.cells[b.idx()].active()) {
                     return 0.0;
                 }
-                portal_passage(&field, &p.pieces, peaks[a.idx()], peaks[b.idx()].1)
+                portal_passage(&field, &p.pieces, peaks[a.idx()], peaks[b.idx()])
             })
             .collect();
         let value = peaks
@@ -337,19 +347,19 @@ impl CellField {
             }
             xs.iter()
                 .zip(&ds)
-                .map(|(&x, &dx)| (x, segment_min_from(&self.field, best, d, x, s0), dx))
+                .map(|(&x, &dx)| (x, segment_min_from(&self.field, best, d, x, dx, s0), dx))
                 .collect()
         };
         let (la, lb) = (leg(&sa), leg(&sb));
         // Values at or below `floor` only matter as such (callers take `max(floor, ·)`).
-        let side = |legs: &[([f64; 3], f64, f64)], y: [f64; 3], floor: f64| {
+        let side = |legs: &[([f64; 3], f64, f64)], y: [f64; 3], dy: f64, floor: f64| {
             let mut v = f64::NEG_INFINITY;
             for &(x, l, dx) in legs {
                 let f = v.max(floor);
                 if l <= f {
                     continue;
                 }
-                v = v.max(l.min(segment_min_from(&self.field, x, dx, y, f)));
+                v = v.max(l.min(segment_min_from(&self.field, x, dx, y, dy, f)));
             }
             v
         };
@@ -364,14 +374,15 @@ impl CellField {
                 ys.push(lerp(&m, &mid(v, piece.verts[(i + 1) % n]), 0.75));
             }
             for y in ys {
-                if self.field.distance(y) <= s {
+                let dy = self.field.distance(y);
+                if dy <= s {
                     continue;
                 }
-                let va = side(&la, y, s);
+                let va = side(&la, y, dy, s);
                 if va <= s {
                     continue;
                 }
-                s = s.max(va.min(side(&lb, y, s)));
+                s = s.max(va.min(side(&lb, y, dy, s)));
             }
         }
         if s.is_finite() { s } else { self.passage[k] }
@@ -2106,7 +2117,7 @@ mod tests {
     }
 
     fn segment_min(field: &ClearanceField, p: [f64; 3], q: [f64; 3]) -> f64 {
-        segment_min_from(field, p, field.distance(p), q, f64::NEG_INFINITY)
+        segment_min_from(field, p, field.distance(p), q, f64::NAN, f64::NEG_INFINITY)
     }
 
     /// `refined_passage` as first written (every leg marched to its end).
