@@ -129,7 +129,7 @@ impl ClearanceField {
         let nodes = if tris.is_empty() {
             Vec::new()
         } else {
-            build_par(&mut tris, 0, 0, PAR_MIN)
+            build_par(&mut tris, PAR_MIN)
         };
         ClearanceField { tris, nodes }
     }
@@ -372,44 +372,105 @@ fn sah_split(tris: &mut [[P3; 3]], clo: P3, chi: P3) -> Option<usize> {
 /// Ranges of at least this many triangles build their two subtrees in parallel.
 const PAR_MIN: usize = 1 << 15;
 
-/// [`build_at`] of the whole of `tris` (which starts at triangle `base` of the field), its
-/// two subtrees built in parallel (rayon) while they hold at least `par_min` ([`PAR_MIN`])
-/// triangles: the nodes in the same depth-first order with the same bits as one
-/// [`build_at`] gives (each subtree is built into its own list, then its right-child
-/// indices are shifted by where the list lands), so the tree does not depend on the number
-/// of threads.
-fn build_par(tris: &mut [[P3; 3]], base: usize, depth: usize, par_min: usize) -> Vec<Node> {
+/// The tree of `tris` (partitioned in place), as [`build_at`] gives it: the same nodes in
+/// the same depth-first order, bit for bit, whatever the number of threads. Ranges of at
+/// least `par_min` ([`PAR_MIN`]) triangles build their two subtrees in parallel (rayon).
+/// A subtree of `k` triangles has at most `2k - 1` nodes, so each parallel subtree writes
+/// into its own region of that many slots of one buffer (reserved, never initialised: only
+/// the pages written become resident), and the used runs are then copied into the exactly
+/// sized tree with the right-child indices moved along. No subtree list is built and
+/// concatenated level by level, which left up to five generations of freed node lists in
+/// the worker threads' malloc arena (about 50 MiB at a million triangles).
+fn build_par(tris: &mut [[P3; 3]], par_min: usize) -> Vec<Node> {
     let n = tris.len();
-    if n < par_min {
+    if n < par_min.max(2) {
         let mut nodes = Vec::with_capacity(2 * n / LEAF + 1);
-        build_at(tris, base, 0, n, depth, &mut nodes);
+        build_at(tris, 0, 0, n, 0, &mut nodes);
         return nodes;
     }
-    let (me, split) = node_and_split(tris, base, 0, n, depth);
+    let mut buf: Vec<Node> = Vec::with_capacity(2 * n - 1);
+    let slots = &mut buf.spare_capacity_mut()[..2 * n - 1];
+    let runs = fill(tris, 0, 0, slots, 0, par_min);
+    // Where each run lands in the tree: runs are in slot order, which is depth-first order.
+    let mut starts = Vec::with_capacity(runs.len());
+    let mut total = 0usize;
+    for &(s, e) in &runs {
+        starts.push((s, total));
+        total += e - s;
+    }
+    let moved = |x: u32| -> u32 {
+        let i = starts.partition_point(|&(s, _)| s <= x as usize) - 1;
+        let (s, to) = starts[i];
+        (x as usize - s + to) as u32
+    };
+    let mut nodes = Vec::with_capacity(total);
+    for &(s, e) in &runs {
+        for slot in &slots[s..e] {
+            // SAFETY: `fill` returns exactly the slots it wrote, each once, as its runs.
+            let mut x = unsafe { slot.assume_init() };
+            if x.count == 0 {
+                x.first = moved(x.first);
+            }
+            nodes.push(x);
+        }
+    }
+    nodes
+}
+
+/// Writes the subtree of `tris` (triangles `base..` of the field) into `out`, its region of
+/// `2 * tris.len() - 1` slots starting at slot `at` of the buffer: the root at `out[0]`,
+/// the left subtree's region next, then the right one's (inner nodes name their right
+/// child by buffer slot). Returns the runs of slots written, `[start, end)`, in order.
+fn fill(
+    tris: &mut [[P3; 3]],
+    base: usize,
+    depth: usize,
+    out: &mut [std::mem::MaybeUninit<Node>],
+    at: usize,
+    par_min: usize,
+) -> Vec<(usize, usize)> {
+    let k = tris.len();
+    if k < par_min.max(2) {
+        let mut nodes = Vec::with_capacity(2 * k / LEAF + 1);
+        build_at(tris, base, 0, k, depth, &mut nodes);
+        // A binary tree whose leaves hold at least one triangle each; the runs returned
+        // must be slots written (the caller reads them as initialised).
+        assert!(
+            nodes.len() <= out.len(),
+            "a subtree of {k} triangles has {} nodes",
+            nodes.len()
+        );
+        for (slot, mut x) in out.iter_mut().zip(nodes.iter().copied()) {
+            if x.count == 0 {
+                x.first += at as u32;
+            }
+            slot.write(x);
+        }
+        return vec![(at, at + nodes.len())];
+    }
+    let (me, split) = node_and_split(tris, base, 0, k, depth);
     let Some(mid) = split else {
-        return vec![me];
+        out[0].write(me);
+        return vec![(at, at + 1)];
     };
     let (l, r) = tris.split_at_mut(mid);
-    let (left, right) = rayon::join(
-        || build_par(l, base, depth + 1, par_min),
-        || build_par(r, base + mid, depth + 1, par_min),
+    let (head, rest) = out.split_at_mut(1);
+    let (lo, ro) = rest.split_at_mut(2 * mid - 1);
+    let right_at = at + 2 * mid;
+    let (lr, rr) = rayon::join(
+        || fill(l, base, depth + 1, lo, at + 1, par_min),
+        || fill(r, base + mid, depth + 1, ro, right_at, par_min),
     );
-    let mut nodes = Vec::with_capacity(1 + left.len() + right.len());
-    nodes.push(Node {
-        first: (1 + left.len()) as u32,
+    head[0].write(Node {
+        first: right_at as u32,
         count: 0,
         ..me
     });
-    for list in [left, right] {
-        let at = nodes.len() as u32;
-        nodes.extend(list.into_iter().map(|mut x| {
-            if x.count == 0 {
-                x.first += at;
-            }
-            x
-        }));
-    }
-    nodes
+    let mut runs = Vec::with_capacity(1 + lr.len() + rr.len());
+    runs.push((at, at + 1));
+    runs.extend(lr);
+    runs.extend(rr);
+    runs
 }
 
 /// The node of `tris[first..end]` (a leaf's triangles are `base + first..` of the field)
@@ -518,9 +579,9 @@ mod tests {
         let mut serial = Vec::new();
         let n = tris.len();
         build_at(&mut serial_tris, 0, 0, n, 0, &mut serial);
-        for par_min in [1, 5, 64, 1000, n + 1] {
+        for par_min in [0, 1, 2, 5, 64, 1000, n + 1] {
             let mut t = tris.clone();
-            let nodes = build_par(&mut t, 0, 0, par_min);
+            let nodes = build_par(&mut t, par_min);
             assert_eq!(nodes.len(), serial.len(), "par_min {par_min}");
             assert!(
                 nodes.iter().zip(&serial).all(|(a, b)| key(a) == key(b)),
