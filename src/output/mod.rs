@@ -245,16 +245,20 @@ pub fn result_doc(
 ) -> Result<ResultDoc, OutputError> {
     let (lo, hi) = model.bbox();
     let area_min = cx.tol.area_abs();
+    // Every piece's document is a function of its cell alone: built on all cores (rayon),
+    // collected in order, so the document does not depend on the thread count.
+    use rayon::prelude::*;
     let cells = dec
         .partition
         .cells
-        .iter()
+        .par_iter()
         .map(|c| CellDoc {
             id: c.id.0,
             volume: c.volume,
             pieces: c
                 .pieces
-                .iter()
+                .par_iter()
+                .with_min_len(256)
                 .map(|&p| {
                     let poly = &cx.cells[p.idx()].poly();
                     let mut planes: Vec<[f64; 4]> = Vec::new();
