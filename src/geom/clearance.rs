@@ -314,19 +314,31 @@ fn sah_split(tris: &mut [[P3; 3]], clo: P3, chi: P3) -> Option<usize> {
         b.min(BINS - 1)
     };
     let mut best: Option<(f64, usize, usize)> = None;
-    for k in 0..3 {
+    // The bins of the three axes filled in one pass over the triangles (counts and boxes
+    // do not depend on the order they are filled in).
+    let axis_ok = |k: usize| {
         let e = chi[k] - clo[k];
-        if !(e > 0.0 && e.is_finite()) {
+        e > 0.0 && e.is_finite()
+    };
+    let ok = [axis_ok(0), axis_ok(1), axis_ok(2)];
+    let mut counts = [[0usize; BINS]; 3];
+    let mut blos = [[[f64::INFINITY; 3]; BINS]; 3];
+    let mut bhis = [[[f64::NEG_INFINITY; 3]; BINS]; 3];
+    for t in tris.iter() {
+        let c = centroid(t);
+        for k in 0..3 {
+            if ok[k] {
+                let b = bin_of(c[k], k);
+                counts[k][b] += 1;
+                grow(&mut blos[k][b], &mut bhis[k][b], t);
+            }
+        }
+    }
+    for k in 0..3 {
+        if !ok[k] {
             continue;
         }
-        let mut count = [0usize; BINS];
-        let mut blo = [[f64::INFINITY; 3]; BINS];
-        let mut bhi = [[f64::NEG_INFINITY; 3]; BINS];
-        for t in tris.iter() {
-            let b = bin_of(centroid(t)[k], k);
-            count[b] += 1;
-            grow(&mut blo[b], &mut bhi[b], t);
-        }
+        let (count, blo, bhi) = (&counts[k], &blos[k], &bhis[k]);
         // Right-to-left sweep: the cost of each right part.
         let mut right = [0.0f64; BINS];
         let (mut lo, mut hi, mut n) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3], 0usize);
