@@ -97,7 +97,7 @@ use super::heuristic::{PairContext, sanitize};
 use super::hull3::Hull3;
 use super::project::{Frame, P2, hull2, hull2_into, polygon_area};
 use super::{Decimation, DecimationStats, Settings, Step, StopReason, StopRule};
-use crate::base::vec::{lerp, norm};
+use crate::base::vec::{lerp, norm, normalize};
 use crate::complex::{Cell, CellComplex};
 use crate::geom::ClearanceField;
 use crate::ids::CellId;
@@ -1386,10 +1386,17 @@ fn run_inner(
     let mut comps: Vec<Comp> = vec![Comp::default(); n];
     let mut cells = 0usize;
     let mut stats = DecimationStats::default();
-    for (id, c) in cx.active_cells() {
+    // Volumes on all cores (a split cell's is a polyhedron's moment), each by one thread.
+    let volumes: Vec<f64> = cx
+        .cells
+        .par_iter()
+        .with_min_len(1024)
+        .map(|c| if c.active() { c.volume() } else { 0.0 })
+        .collect();
+    for (id, _) in cx.active_cells() {
         let k = &mut comps[id.idx()];
         k.peak = field.value[id.idx()];
-        k.volume = c.volume();
+        k.volume = volumes[id.idx()];
         k.pieces = 1;
         k.label = labels.map_or(0, |(l, _)| l[id.idx()]);
         if sections {
@@ -1397,6 +1404,7 @@ fn run_inner(
         }
         cells += 1;
     }
+    drop(volumes);
     // Each component's links sized at once (its portals bound its neighbours), instead of
     // grown by insertions: the same links, without the reallocations.
     let mut degree = vec![0u32; n];
@@ -1425,7 +1433,9 @@ fn run_inner(
             ..Link::EMPTY
         };
         for (i, q) in p.pieces.iter().enumerate() {
-            let (qa, qn) = (q.area(), q.normal());
+            // `area()` and `normal()` of the one area vector (the same bits as each).
+            let av = q.area_vector();
+            let (qa, qn) = (norm(&av), normalize(&av));
             l.av = [l.av[0] + qa * qn[0], l.av[1] + qa * qn[1], l.av[2] + qa * qn[2]];
             if qa > l.largest_area {
                 l = l.with_largest(k as u32, i as u32);
