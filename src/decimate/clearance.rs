@@ -1094,6 +1094,13 @@ pub fn tunnel_labels(cx: &CellComplex, field: &CellField, part: &super::Partitio
         let [a, b] = cx.portals[k].cells;
         a != b && label[a.idx()] != u32::MAX && label[b.idx()] != u32::MAX
     });
+    // Each portal's two cells and area, compact (16 B instead of a portal with its pieces):
+    // the loop below reads them for every portal of every cell of both groups of a pair.
+    let ends: Vec<(u32, u32, f64)> = cx
+        .portals
+        .iter()
+        .map(|p| (p.cells[0].0, p.cells[1].0, p.area))
+        .collect();
     let pairs: Vec<(u32, u32, f64)> = part
         .portals(cx)
         .iter()
@@ -1138,13 +1145,15 @@ pub fn tunnel_labels(cx: &CellComplex, field: &CellField, part: &super::Partitio
             continue;
         }
         let m = 2 + cells.len();
-        let (mut head, mut to, mut cap): (Vec<Vec<u32>>, Vec<u32>, Vec<f64>) =
-            (vec![Vec::new(); m], Vec::new(), Vec::new());
+        // Directed edges in insertion order (edge `e ^ 1` is `e` reversed), then each
+        // node's edges as a compressed row in that order (`adj[start[u]..start[u + 1]]`),
+        // the order a list per node would hold them in.
+        let (mut from, mut to, mut cap): (Vec<u32>, Vec<u32>, Vec<f64>) = (Vec::new(), Vec::new(), Vec::new());
         for &g in &[i, j] {
             for &c in &members[g as usize] {
                 for &k in cell_portals.of(c as usize) {
-                    let [a, b] = cx.portals[k as usize].cells;
-                    let o = if a.0 == c { b.0 } else { a.0 };
+                    let (a, b, area) = ends[k as usize];
+                    let o = if a == c { b } else { a };
                     // Each portal once (from its lower cell), both ends in the pair.
                     let (x, y) = (node[c as usize], node[o as usize]);
                     if x == u32::MAX || y == u32::MAX {
@@ -1153,27 +1162,43 @@ pub fn tunnel_labels(cx: &CellComplex, field: &CellField, part: &super::Partitio
                     if c > o || x == y {
                         continue;
                     }
-                    let area = cx.portals[k as usize].area;
                     for (u, v) in [(x, y), (y, x)] {
-                        head[u as usize].push(to.len() as u32);
+                        from.push(u);
                         to.push(v);
                         cap.push(area);
                     }
                 }
             }
         }
+        let mut start = vec![0u32; m + 1];
+        for &u in &from {
+            start[u as usize + 1] += 1;
+        }
+        for u in 0..m {
+            start[u + 1] += start[u];
+        }
+        let mut fill = start.clone();
+        let mut adj = vec![0u32; from.len()];
+        for (e, &u) in from.iter().enumerate() {
+            adj[fill[u as usize] as usize] = e as u32;
+            fill[u as usize] += 1;
+        }
+        drop((from, fill));
+        let head = |u: u32| &adj[start[u as usize] as usize..start[u as usize + 1] as usize];
         // Edmonds–Karp: shortest augmenting paths, in the edges' order (deterministic).
         let mut prev = vec![u32::MAX; m];
+        let mut queue = std::collections::VecDeque::new();
         let reach = loop {
             prev.iter_mut().for_each(|p| *p = u32::MAX);
             let mut seen = vec![false; m];
             seen[0] = true;
-            let mut queue = std::collections::VecDeque::from([0u32]);
+            queue.clear();
+            queue.push_back(0u32);
             while let Some(u) = queue.pop_front() {
                 if u == 1 {
                     break;
                 }
-                for &e in &head[u as usize] {
+                for &e in head(u) {
                     let v = to[e as usize];
                     if !seen[v as usize] && cap[e as usize] > 0.0 {
                         seen[v as usize] = true;
@@ -1205,7 +1230,7 @@ pub fn tunnel_labels(cx: &CellComplex, field: &CellField, part: &super::Partitio
         to_sink[1] = true;
         let mut stack = vec![1u32];
         while let Some(v) = stack.pop() {
-            for &e in &head[v as usize] {
+            for &e in head(v) {
                 // Edge e: v -> u; its reverse u -> v has residual capacity cap[e ^ 1].
                 let u = to[e as usize];
                 if !to_sink[u as usize] && cap[e as usize ^ 1] > 0.0 {
