@@ -3,6 +3,7 @@
 //!
 //! - [`rng`]: the one random-number generator ([`rng::SplitMix64`]), seedable, so every
 //!   insertion order, generated model and test input is reproducible.
+//! - [`hash`]: a fast deterministic hasher for integer keys ([`hash::FxBuild`]).
 //! - [`mem`]: the process's peak resident memory (`VmHWM`), which every stage reports.
 //! - [`rigid`]: the one rigid-transform module (rotations by degrees about the coordinate
 //!   axes, the 7°/8°/9° stress rotation of the tests and benchmarks).
@@ -11,6 +12,7 @@
 //!   patterns (the B-rep identifies vertices by their exact coordinates) and every formula
 //!   must keep its operation order (outputs are compared byte for byte).
 
+pub mod hash;
 pub mod mem;
 pub mod rigid;
 pub mod rng;

@@ -7,6 +7,11 @@ use crate::ids::CellId;
 use rayon::prelude::*;
 use std::collections::{HashMap, VecDeque};
 
+/// The portal of each cell pair, by (lower id, higher id): looked up only, never iterated,
+/// so its hasher (Fx, a multiply per id, instead of SipHash: millions of pairs at a million
+/// triangles) changes nothing but time.
+type PairMap = HashMap<(CellId, CellId), usize, crate::base::hash::FxBuild>;
+
 /// Patches per block of the portal graph's parallel subtraction (see `build_graph`).
 const GRAPH_BLOCK: usize = 1 << 14;
 
@@ -50,7 +55,7 @@ type Link = (CellId, CellId, ConvexPolygon);
 /// The crack links of [`CellComplex::cracks`] before the region test: the sliver openings
 /// (`dropped`) between cell pairs that no portal joins (`by_pair`), grouped per pair and
 /// oriented from the smaller cell id to the larger, in a fixed order.
-fn crack_links(by_pair: &HashMap<(CellId, CellId), usize>, dropped: Vec<Link>) -> Vec<Portal> {
+fn crack_links(by_pair: &PairMap, dropped: Vec<Link>) -> Vec<Portal> {
     let mut cracks: std::collections::BTreeMap<(CellId, CellId), Portal> = Default::default();
     for (a, b, q) in dropped {
         let (key, q) = if a < b { ((a, b), q) } else { ((b, a), q.reversed()) };
@@ -160,7 +165,7 @@ impl CellComplex {
             .filter(|&pi| between(pi).is_some_and(|(a, b)| !membrane[a.idx()] && !membrane[b.idx()]))
             .count()
             + links.len();
-        let mut by_pair: HashMap<(CellId, CellId), usize> = HashMap::with_capacity(bound);
+        let mut by_pair: PairMap = HashMap::with_capacity_and_hasher(bound, Default::default());
         let mut portals: Vec<Portal> = Vec::with_capacity(bound);
         let mut add = |a: CellId, b: CellId, pieces: Vec<ConvexPolygon>| {
             // Orient from the smaller cell id to the larger.

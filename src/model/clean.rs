@@ -1,7 +1,6 @@
 //! The cleaning pipeline shared by all readers (see the module docs of [`crate::model`]).
 
 use std::collections::HashMap;
-use std::hash::{BuildHasherDefault, Hasher};
 
 use super::error::ModelError;
 use super::report::CleaningReport;
@@ -26,40 +25,7 @@ pub(crate) struct Soup {
     pub polygons: Vec<RawPolygon>,
 }
 
-/// A small fast hasher (FxHash) for integer keys.
-#[derive(Default, Clone, Copy)]
-pub(crate) struct Fx(u64);
-impl Hasher for Fx {
-    #[inline]
-    fn write(&mut self, bytes: &[u8]) {
-        for chunk in bytes.chunks(8) {
-            let mut b = [0u8; 8];
-            b[..chunk.len()].copy_from_slice(chunk);
-            self.write_u64(u64::from_le_bytes(b));
-        }
-    }
-    #[inline]
-    fn write_u64(&mut self, i: u64) {
-        self.0 = (self.0.rotate_left(5) ^ i).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
-    }
-    #[inline]
-    fn write_u32(&mut self, i: u32) {
-        self.write_u64(i as u64);
-    }
-    #[inline]
-    fn write_i64(&mut self, i: i64) {
-        self.write_u64(i as u64);
-    }
-    #[inline]
-    fn write_usize(&mut self, i: usize) {
-        self.write_u64(i as u64);
-    }
-    #[inline]
-    fn finish(&self) -> u64 {
-        self.0
-    }
-}
-pub(crate) type FxBuild = BuildHasherDefault<Fx>;
+pub(crate) use crate::base::hash::FxBuild;
 
 /// The rounding unit of coordinates up to `max_abs` in magnitude: `f64::EPSILON * max_abs`
 /// (within a factor of two of the spacing of doubles there).
