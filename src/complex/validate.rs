@@ -1,10 +1,12 @@
 //! Invariant checker for [`CellComplex`]. Tests call it after building.
 
 use super::{CellComplex, HULL, PatchId};
+use crate::base::hash::FxBuild;
 use crate::geom::{Classification, ConvexPolygon, ConvexPolyhedron, Cut, Plane};
 use crate::ids::CellId;
 use crate::model::Model;
 use rayon::prelude::*;
+use std::collections::HashMap;
 
 /// The first violated invariant of a cell complex.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -319,8 +321,8 @@ impl CellComplex {
     /// its size. The pipeline runs it after [`check_valid`](Self::check_valid) on every
     /// build, so `run` refuses such a complex.
     ///
-    /// Candidates come from a uniform grid over the polygons' bounding boxes
-    /// ([`PolygonGrid`]); cells are checked in parallel (rayon) and the error is the one of
+    /// Candidates come from a tree over the polygons' bounding boxes ([`BoxTree`]),
+    /// culled by the cell's face planes; cells are checked in parallel (rayon) and the error is the one of
     /// the smallest cell id, and for that cell of the smallest polygon id, whatever the
     /// thread count.
     pub fn check_no_crossing(&self, model: &Model) -> Result<(), ComplexError> {
@@ -350,7 +352,7 @@ impl CellComplex {
             })
             .collect();
         let boxes: Vec<([f64; 3], [f64; 3])> = polys.iter().map(|p| bbox(&p.verts)).collect();
-        let grid = PolygonGrid::new(&boxes);
+        let tree = BoxTree::new(&boxes);
         // Only a cut deeper than the snapping tolerances on both sides is a crossing:
         // polygons are placed on shared support planes (within `coplanar`) and slabs
         // thinner than `weld` are never split.
@@ -372,7 +374,15 @@ impl CellComplex {
         // by the rounding of a normalized plane's length (a factor 2 is ample); the
         // classification is kept for tolerances where it does not.
         let classify = thick <= 2.0 * tol.plane_abs();
-        let cell_check = |(cand, tested): &mut (Vec<u32>, Vec<(Plane, bool)>), ci: usize| -> Option<ComplexError> {
+        // The plane tests of one cell: a list, and past `LINEAR` entries also an index by
+        // the plane's bits (a cell spanning a room meets thousands of distinct wall planes,
+        // and a linear search per candidate made the check quadratic in them). Equal
+        // planes (`==`) give the same test whichever finds them: the test is a function of
+        // the plane's value, and planes equal but for the sign of a zero evaluate alike.
+        const LINEAR: usize = 32;
+        type Tested = (Vec<(Plane, bool)>, HashMap<[u64; 4], bool, FxBuild>);
+        let key = |p: &Plane| [p.n[0].to_bits(), p.n[1].to_bits(), p.n[2].to_bits(), p.d.to_bits()];
+        let cell_check = |(cand, (tested, index)): &mut (Vec<u32>, Tested), ci: usize| -> Option<ComplexError> {
             let c = &self.cells[ci];
             // Flat cells have no interior to cross.
             if !c.alive || c.flat {
@@ -381,27 +391,77 @@ impl CellComplex {
             let (a, b) = c.aabb();
             let (lo, hi) = (a.map(|x| x - reach), b.map(|x| x + reach));
             cand.clear();
-            grid.visit(&lo, &hi, |pi| {
+            // The cell's face planes, outward and normalized: a box farther than `cull`
+            // (plus the rounding of evaluating a plane at its corner) in front of one of
+            // them holds no point within `reach` of the cell, so no polygon inside it can
+            // fire either test (the argument for `reach` above, per face plane instead of
+            // per axis). A cell meeting few boxes is not worth its planes (most are small
+            // tetrahedra); past `FEW` candidates the gathering restarts with culling:
+            // tree nodes beyond a face plane are not walked, which keeps a long cell from
+            // visiting every polygon of its bounding box.
+            const FEW: usize = 32;
+            let in_box = |pi: u32| {
                 let (pa, pb) = &boxes[pi as usize];
-                if (0..3).all(|k| pa[k] <= hi[k] && pb[k] >= lo[k]) {
+                (0..3).all(|k| pa[k] <= hi[k] && pb[k] >= lo[k])
+            };
+            let mut many = false;
+            tree.visit(&lo, &hi, &|_: &[f64; 3], _: &[f64; 3]| false, |pi| {
+                if !many && in_box(pi) {
                     cand.push(pi);
+                    many = cand.len() > FEW;
                 }
             });
+            if many {
+                cand.clear();
+                let outward: Vec<Plane> = c.poly().planes().iter().map(|f| f.normalized()).collect();
+                let cull = 2.0 * reach;
+                let beyond = |f: &Plane, p: &[f64; 3]| {
+                    let (mut m, mut mag) = (-f.d, f.d.abs());
+                    for k in 0..3 {
+                        let t = f.n[k] * p[k];
+                        m += t;
+                        mag += t.abs();
+                    }
+                    m > cull + 8.0 * f64::EPSILON * mag
+                };
+                let far = |a: &[f64; 3], b: &[f64; 3]| {
+                    outward.iter().any(|f| {
+                        let corner: [f64; 3] = std::array::from_fn(|k| if f.n[k] >= 0.0 { a[k] } else { b[k] });
+                        beyond(f, &corner)
+                    })
+                };
+                tree.visit(&lo, &hi, &far, |pi| {
+                    if in_box(pi)
+                        && !outward
+                            .iter()
+                            .any(|f| polys[pi as usize].verts.iter().all(|v| beyond(f, v)))
+                    {
+                        cand.push(pi);
+                    }
+                });
+            }
             if cand.is_empty() {
                 return None;
             }
+            // Ascending polygon order: the first crossing reported per cell does not
+            // depend on the tree.
             cand.sort_unstable();
-            cand.dedup();
             // Once per cell, not per candidate polygon.
             let verts = c.vertices();
             let mut face_planes: Option<Vec<Plane>> = None;
             // The plane test per distinct plane (polygons on one support plane share it).
             tested.clear();
+            index.clear();
             for &pi in cand.iter() {
                 let poly = &polys[pi as usize];
                 let plane = planes[pi as usize];
-                let deep = match tested.iter().find(|(p, _)| *p == plane) {
-                    Some(&(_, deep)) => deep,
+                let known = if tested.len() <= LINEAR {
+                    tested.iter().find(|(p, _)| *p == plane).map(|&(_, d)| d)
+                } else {
+                    index.get(&key(&plane)).copied()
+                };
+                let deep = match known {
+                    Some(deep) => deep,
                     None => {
                         let (mut front, mut back) = (0.0f64, 0.0f64);
                         for v in &verts {
@@ -413,6 +473,13 @@ impl CellComplex {
                             && back > thick
                             && !(classify && c.poly().classify(&plane, tol) != Classification::Straddles);
                         tested.push((plane, deep));
+                        if tested.len() > LINEAR {
+                            if index.is_empty() {
+                                index.extend(tested.iter().map(|(p, d)| (key(p), *d)));
+                            } else {
+                                index.insert(key(&plane), deep);
+                            }
+                        }
                         deep
                     }
                 };
@@ -473,102 +540,108 @@ impl CellComplex {
     }
 }
 
-/// A uniform grid of cubic buckets over axis-aligned boxes, in compressed rows (one
-/// offset per bucket, no `Vec` per bucket): about one bucket per box, dimensions in
-/// proportion to the boxes' extent (a flat building gets a flat grid), at most
-/// [`PolygonGrid::MAX_DIM`] per axis.
-struct PolygonGrid {
-    lo: [f64; 3],
-    size: [f64; 3],
-    dims: [usize; 3],
-    start: Vec<u32>,
+/// A bounding-volume tree over axis-aligned boxes (median splits on the widest axis of
+/// the boxes' centres, leaves of at most [`BoxTree::LEAF`] items), queried by a box and a
+/// culling predicate on node boxes. It adapts to where the boxes are: a uniform grid put
+/// hundreds of thin wall boxes in each bucket at the rim of a round room, and every long
+/// cell ending there walked them all (the star-cap prism of `bench degenerate` was
+/// quadratic); here a node is skipped as soon as its box lies beyond one of the cell's
+/// face planes.
+struct BoxTree {
+    nodes: Vec<BoxNode>,
+    /// Item indices; a leaf holds a contiguous range.
     items: Vec<u32>,
 }
 
-impl PolygonGrid {
-    const MAX_DIM: usize = 1024;
+/// A node: its box, and either a leaf's item range (`count > 0`) or, for an inner node,
+/// its children (the left one follows it, the right one is `right`).
+struct BoxNode {
+    lo: [f64; 3],
+    hi: [f64; 3],
+    start: u32,
+    count: u32,
+    right: u32,
+}
+
+impl BoxTree {
+    const LEAF: usize = 4;
+    /// Median splits keep the depth at most log2(n) + 1 < 40 for `u32` items.
+    const STACK: usize = 64;
 
     fn new(boxes: &[([f64; 3], [f64; 3])]) -> Self {
+        let mut items: Vec<u32> = (0..boxes.len() as u32).collect();
+        let mut nodes = Vec::with_capacity(2 * boxes.len() / Self::LEAF + 1);
+        if !boxes.is_empty() {
+            Self::build(boxes, &mut items, 0, &mut nodes);
+        }
+        BoxTree { nodes, items }
+    }
+
+    fn build(boxes: &[([f64; 3], [f64; 3])], items: &mut [u32], start: usize, nodes: &mut Vec<BoxNode>) -> usize {
         let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-        for (a, b) in boxes {
+        let (mut clo, mut chi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for &i in items.iter() {
+            let (a, b) = &boxes[i as usize];
             for k in 0..3 {
                 lo[k] = lo[k].min(a[k]);
                 hi[k] = hi[k].max(b[k]);
+                let c = 0.5 * (a[k] + b[k]);
+                clo[k] = clo[k].min(c);
+                chi[k] = chi[k].max(c);
             }
         }
-        if boxes.is_empty() || !(0..3).all(|k| lo[k].is_finite() && hi[k].is_finite()) {
-            lo = [0.0; 3];
-            hi = [0.0; 3];
-        }
-        let ext: [f64; 3] = std::array::from_fn(|k| hi[k] - lo[k]);
-        let emax = ext.iter().fold(0.0f64, |m, &e| m.max(e));
-        let target = boxes.len().max(1) as f64;
-        // Bucket side: the cube root of the (floored) volume per box.
-        let e: [f64; 3] = ext.map(|x| x.max(emax / Self::MAX_DIM as f64));
-        let h = (e[0] * e[1] * e[2] / target).cbrt();
-        let dims: [usize; 3] = std::array::from_fn(|k| {
-            if h > 0.0 && h.is_finite() {
-                ((ext[k] / h).ceil() as usize).clamp(1, Self::MAX_DIM)
-            } else {
-                1
-            }
-        });
-        let size: [f64; 3] = std::array::from_fn(|k| (ext[k] / dims[k] as f64).max(1e-300));
-        let mut g = PolygonGrid {
+        let me = nodes.len();
+        nodes.push(BoxNode {
             lo,
-            size,
-            dims,
-            start: Vec::new(),
-            items: Vec::new(),
-        };
-        let n = dims[0] * dims[1] * dims[2];
-        let mut count = vec![0u32; n + 1];
-        for (a, b) in boxes {
-            g.buckets(a, b, |q| count[q] += 1);
-        }
-        let mut acc = 0u32;
-        for c in count.iter_mut() {
-            let k = *c;
-            *c = acc;
-            acc += k;
-        }
-        let mut items = vec![0u32; acc as usize];
-        let mut next = count.clone();
-        for (i, (a, b)) in boxes.iter().enumerate() {
-            g.buckets(a, b, |q| {
-                items[next[q] as usize] = i as u32;
-                next[q] += 1;
-            });
-        }
-        g.start = count;
-        g.items = items;
-        g
-    }
-
-    fn bucket_of(&self, p: &[f64; 3], k: usize) -> usize {
-        (((p[k] - self.lo[k]) / self.size[k]).floor().max(0.0) as usize).min(self.dims[k] - 1)
-    }
-
-    /// Calls `f` with every bucket index meeting the box `[a, b]`.
-    fn buckets(&self, a: &[f64; 3], b: &[f64; 3], mut f: impl FnMut(usize)) {
-        let [_, ny, nz] = self.dims;
-        for x in self.bucket_of(a, 0)..=self.bucket_of(b, 0) {
-            for y in self.bucket_of(a, 1)..=self.bucket_of(b, 1) {
-                for z in self.bucket_of(a, 2)..=self.bucket_of(b, 2) {
-                    f((x * ny + y) * nz + z);
-                }
-            }
-        }
-    }
-
-    /// Calls `f` with every item in a bucket meeting the box `[a, b]` (an item once per
-    /// bucket, so possibly several times).
-    fn visit(&self, a: &[f64; 3], b: &[f64; 3], mut f: impl FnMut(u32)) {
-        self.buckets(a, b, |q| {
-            for &i in &self.items[self.start[q] as usize..self.start[q + 1] as usize] {
-                f(i);
-            }
+            hi,
+            start: start as u32,
+            count: items.len() as u32,
+            right: 0,
         });
+        if items.len() <= Self::LEAF {
+            return me;
+        }
+        let axis = (0..3).fold(0, |m, k| if chi[k] - clo[k] > chi[m] - clo[m] { k } else { m });
+        let mid = items.len() / 2;
+        let key = |i: &u32| {
+            let (a, b) = &boxes[*i as usize];
+            a[axis] + b[axis]
+        };
+        items.select_nth_unstable_by(mid, |x, y| key(x).total_cmp(&key(y)).then(x.cmp(y)));
+        let (l, r) = items.split_at_mut(mid);
+        nodes[me].count = 0;
+        Self::build(boxes, l, start, nodes);
+        let right = Self::build(boxes, r, start + mid, nodes);
+        nodes[me].right = right as u32;
+        me
+    }
+
+    /// Calls `f` with every item of a leaf whose box meets `[a, b]` and which no culled
+    /// node contains (a node is culled when its box does not meet `[a, b]` or satisfies
+    /// `far`); each item at most once.
+    fn visit(&self, a: &[f64; 3], b: &[f64; 3], far: &impl Fn(&[f64; 3], &[f64; 3]) -> bool, mut f: impl FnMut(u32)) {
+        if self.nodes.is_empty() {
+            return;
+        }
+        let mut stack = [0u32; Self::STACK];
+        let mut top = 1;
+        while top > 0 {
+            top -= 1;
+            let id = stack[top];
+            let n = &self.nodes[id as usize];
+            if !(0..3).all(|k| n.lo[k] <= b[k] && n.hi[k] >= a[k]) || far(&n.lo, &n.hi) {
+                continue;
+            }
+            if n.count > 0 {
+                for &i in &self.items[n.start as usize..(n.start + n.count) as usize] {
+                    f(i);
+                }
+            } else {
+                stack[top] = n.right;
+                stack[top + 1] = id + 1;
+                top += 2;
+            }
+        }
     }
 }
 
@@ -627,4 +700,57 @@ fn volume_rounding(p: &ConvexPolyhedron) -> f64 {
 
 fn bbox(v: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
     crate::model::bbox_of(v.iter())
+}
+
+#[cfg(test)]
+mod box_tree_tests {
+    use super::BoxTree;
+
+    /// The tree without culling visits exactly the items whose box meets the query box,
+    /// each once; with a culling predicate it skips only items inside culled boxes.
+    #[test]
+    fn box_tree_visits_what_brute_force_finds() {
+        let mut s = 0x9e3779b97f4a7c15u64;
+        let mut r = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for n in [0usize, 1, 3, 4, 5, 17, 300, 2000] {
+            let boxes: Vec<([f64; 3], [f64; 3])> = (0..n)
+                .map(|_| {
+                    let a = [r() * 10.0, r() * 10.0, r() * 3.0];
+                    let e = [r() * r() * 4.0, r() * 0.2, r() * 3.0];
+                    (a, [a[0] + e[0], a[1] + e[1], a[2] + e[2]])
+                })
+                .collect();
+            let tree = BoxTree::new(&boxes);
+            for _ in 0..50 {
+                let a = [r() * 10.0, r() * 10.0, r() * 3.0];
+                let b = [a[0] + r() * 3.0, a[1] + r() * 3.0, a[2] + r()];
+                let meets = |(p, q): &([f64; 3], [f64; 3])| (0..3).all(|k| p[k] <= b[k] && q[k] >= a[k]);
+                let mut got = Vec::new();
+                tree.visit(&a, &b, &|_: &[f64; 3], _: &[f64; 3]| false, |i| got.push(i));
+                let mut want: Vec<u32> = (0..n as u32).filter(|&i| meets(&boxes[i as usize])).collect();
+                // Leaves may hand out items whose own box misses the query; none twice.
+                let mut all = got.clone();
+                all.sort_unstable();
+                all.dedup();
+                assert_eq!(all.len(), got.len(), "an item visited twice");
+                all.retain(|&i| meets(&boxes[i as usize]));
+                want.sort_unstable();
+                assert_eq!(all, want);
+                // Culling the half-space x > 5: every item with a point at x <= 5 that
+                // meets the query is still visited.
+                let mut culled = Vec::new();
+                tree.visit(&a, &b, &|lo: &[f64; 3], _: &[f64; 3]| lo[0] > 5.0, |i| culled.push(i));
+                for i in want {
+                    if boxes[i as usize].0[0] <= 5.0 {
+                        assert!(culled.contains(&i), "item {i} lost to culling");
+                    }
+                }
+            }
+        }
+    }
 }
