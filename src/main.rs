@@ -963,6 +963,7 @@ fn cell_settings(
         seal_holes,
         bsp: portalfind::bsp::BspSettings {
             max_candidates: bsp_candidates,
+            variant: 0,
         },
         ..CellSettings::default()
     }
@@ -1055,8 +1056,12 @@ fn complex(
     drop(bar);
     if !valid {
         for r in &cells.rejected {
+            let variant = match r.variant {
+                0 => String::new(),
+                v => format!(" (BSP tree variant {v})"),
+            };
             eprintln!(
-                "warning: the cell complex is invalid at tolerance level {}: {}",
+                "warning: the cell complex is invalid at tolerance level {}{variant}: {}",
                 r.level, r.error
             );
         }

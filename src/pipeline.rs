@@ -429,6 +429,8 @@ pub fn build_cells(
 pub struct RejectedLevel {
     /// The level ([`Tolerances::fallback`]).
     pub level: u32,
+    /// The BSP tree variant ([`BspSettings::variant`]; 0 for the Delaunay path).
+    pub variant: u32,
     /// The tolerances used.
     pub tolerances: Tolerances,
     /// The first violated invariant.
@@ -461,8 +463,31 @@ pub fn build_cells_attempts(
     let mut rejected: Vec<RejectedLevel> = Vec::new();
     let mut first: Option<Cells> = None;
     let mut rejected_seconds = 0.0;
-    for level in 0..=FALLBACK_LEVELS {
+    // (tolerance level, BSP tree variant): the tolerance ladder, then for the BSP its
+    // other tree variants at the model's own tolerances.
+    let variants = if settings.subdivision == Subdivision::Bsp {
+        BSP_VARIANTS
+    } else {
+        0
+    };
+    let rungs = (0..=FALLBACK_LEVELS)
+        .map(|l| (l, 0))
+        .chain((1..=variants).map(|v| (0, v)));
+    for (level, variant) in rungs {
         let t0 = Instant::now();
+        let varied;
+        let settings = if variant == 0 {
+            settings
+        } else {
+            varied = CellSettings {
+                bsp: BspSettings {
+                    variant,
+                    ..settings.bsp
+                },
+                ..*settings
+            };
+            &varied
+        };
         let coarser;
         let m = if level == 0 {
             model
@@ -484,7 +509,7 @@ pub fn build_cells_attempts(
         // patch whose portal area missed 1e-3 of it).
         let t1 = Instant::now();
         let r = check(&cells.cx, m).and_then(|()| {
-            if level == 0 {
+            if level == 0 && variant == 0 {
                 Ok(())
             } else {
                 cells.cx.validate(m).map(|_| ())
@@ -496,7 +521,10 @@ pub fn build_cells_attempts(
                 cells.cx.stats.tolerance_level = level;
                 cells.cx.stats.rejected_levels = rejected
                     .iter()
-                    .map(|r| format!("level {}: {}", r.level, r.error))
+                    .map(|r| match r.variant {
+                        0 => format!("level {}: {}", r.level, r.error),
+                        v => format!("level {} (BSP tree variant {v}): {}", r.level, r.error),
+                    })
                     .collect();
                 if rejected_seconds > 0.0 {
                     cells.checks.push((REJECTED_STAGE.into(), rejected_seconds));
@@ -510,6 +538,7 @@ pub fn build_cells_attempts(
                 rejected_seconds += seconds;
                 rejected.push(RejectedLevel {
                     level,
+                    variant,
                     tolerances: m.tolerances,
                     error,
                     seconds,
@@ -525,6 +554,10 @@ pub fn build_cells_attempts(
     cells.rejected = rejected;
     Ok(Attempts { cells, valid: false })
 }
+
+/// The BSP tree variants ([`BspSettings::variant`] 1..=this) [`build_cells`] tries at the
+/// model's own tolerances after every tolerance level of variant 0 failed.
+pub const BSP_VARIANTS: u32 = 4;
 
 /// The stage name of [`build_cells`]' checks (in [`Cells::checks`] and [`Run::stages`]).
 pub const CHECKS_STAGE: &str = "checks (cells valid, no crossing)";

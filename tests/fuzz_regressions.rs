@@ -121,7 +121,7 @@ fn unfixed_finds_are_refused_by_run() {
 fn run_refuses_what_the_validation_rejects() {
     use portalfind::pipeline::{CellSettings, Subdivision, build_cells};
     let mut n = 0;
-    for folder in ["", "fallback", "open", "known"] {
+    for folder in ["", "fallback", "variant", "open", "known"] {
         for p in files(Target::Pipeline, folder) {
             let Ok(m) = portalfind::model::load_model(&p) else {
                 continue;
@@ -169,6 +169,49 @@ fn fallback_finds_pass_through_the_ladder_only() {
             levels.iter().any(|&l| l > 0),
             "{} passes at level 0 now: move it up to pipeline/",
             p.display()
+        );
+    }
+}
+
+/// BSP finds invalid at every tolerance level of Teller's tree that pass with another
+/// tree variant (`BspSettings::variant`, tried by `pipeline::build_cells`' ladder after the
+/// tolerance levels, session 21): the fuzzer's check passes on each, the BSP complex
+/// validates, and it needs a variant (when one passes with variant 0, move it up).
+#[test]
+fn variant_finds_pass_with_another_bsp_tree() {
+    use portalfind::pipeline::{CellSettings, Subdivision, SubdivisionStats, build_cells_attempts};
+    let f = failures("variant");
+    assert!(f.is_empty(), "{f:#?}");
+    let files = files(Target::Pipeline, "variant");
+    assert!(!files.is_empty());
+    for p in files {
+        let m = portalfind::model::load_model(&p).expect("loads");
+        let a = build_cells_attempts(&m, &p, &CellSettings::of(Subdivision::Bsp), &mut |_| {}).expect("builds");
+        assert!(a.valid, "{}", p.display());
+        assert!(a.cells.cx.validate(&m).is_ok(), "{}", p.display());
+        let SubdivisionStats::Bsp(stats) = &a.cells.stats else {
+            panic!("not a BSP")
+        };
+        eprintln!("{}: variant {}", p.display(), stats.variant);
+        assert!(
+            stats.variant > 0,
+            "{} passes with variant 0 now: move it up",
+            p.display()
+        );
+        assert_eq!(a.cells.cx.stats.tolerance_level, 0);
+        let named = a
+            .cells
+            .cx
+            .stats
+            .rejected_levels
+            .iter()
+            .filter(|r| r.contains("BSP tree variant"))
+            .count();
+        assert_eq!(
+            named as u32,
+            stats.variant - 1,
+            "{:?}",
+            a.cells.cx.stats.rejected_levels
         );
     }
 }

@@ -106,14 +106,34 @@ pub struct BspSettings {
     /// polygon has its own plane (caverns, noisy) the full search grows with the number
     /// of planes times the number of fragments at each node.
     pub max_candidates: usize,
+    /// The tree variant: 0 is Teller's criterion as documented (fewest splits, then
+    /// balance, area, support index). Variant `v > 0` keeps the fewest splits but breaks
+    /// ties by a hash of the support index and `v` ([`variant_rank`]): a different, equally
+    /// deterministic tree, which the pipeline's ladder tries when every tolerance level of
+    /// variant 0 leaves an invalid complex (near-degenerate cuts depend on the order of the
+    /// planes, so another order usually avoids them).
+    pub variant: u32,
 }
 
 impl Default for BspSettings {
     fn default() -> Self {
         BspSettings {
             max_candidates: DEFAULT_MAX_CANDIDATES,
+            variant: 0,
         }
     }
+}
+
+fn is_zero(v: &u32) -> bool {
+    *v == 0
+}
+
+/// The tie-break rank of support `s` in tree variant `v > 0` (SplitMix64 of both).
+pub fn variant_rank(s: u32, v: u32) -> u64 {
+    let mut z = ((v as u64) << 32 | s as u64).wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
 }
 
 /// Counts and timings of a BSP build.
@@ -121,6 +141,10 @@ impl Default for BspSettings {
 pub struct BspStats {
     /// The settings used.
     pub max_candidates: usize,
+    /// The tree variant ([`BspSettings::variant`]; 0 unless the ladder needed another,
+    /// and then absent from `result.json`).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub variant: u32,
     /// Model polygons.
     pub polygons: usize,
     /// Their distinct support planes.
@@ -310,6 +334,7 @@ pub fn build_complex_with(model: &Model, settings: &BspSettings) -> (CellComplex
     let mut cx = CellComplex::from_parts(cells, patches, tol, hull_volume, polygon_planes, cstats);
     let mut stats = BspStats {
         max_candidates: settings.max_candidates,
+        variant: settings.variant,
         polygons: model.polygons.len(),
         support_planes: planes.len(),
         ..Default::default()
@@ -466,8 +491,10 @@ impl Builder<'_> {
                 continue;
             }
             let key = (splits, front.abs_diff(back), -area, s);
+            let v = self.settings.variant;
             let better = match best {
                 None => true,
+                Some(b) if v > 0 => (key.0, variant_rank(key.3, v)) < (b.0, variant_rank(b.3, v)),
                 Some(b) => (key.0, key.1)
                     .cmp(&(b.0, b.1))
                     .then(key.2.total_cmp(&b.2))
