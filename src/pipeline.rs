@@ -464,7 +464,7 @@ pub fn build_cells_attempts(
     let mut first: Option<Cells> = None;
     let mut rejected_seconds = 0.0;
     // (tolerance level, BSP tree variant): the tolerance ladder, then for the BSP its
-    // other tree variants at the model's own tolerances.
+    // other tree variants at the model's own tolerances, then at the fallback levels.
     let variants = if settings.subdivision == Subdivision::Bsp {
         BSP_VARIANTS
     } else {
@@ -472,7 +472,8 @@ pub fn build_cells_attempts(
     };
     let rungs = (0..=FALLBACK_LEVELS)
         .map(|l| (l, 0))
-        .chain((1..=variants).map(|v| (0, v)));
+        .chain((1..=variants).map(|v| (0, v)))
+        .chain((1..=FALLBACK_LEVELS).flat_map(|l| (1..=variants).map(move |v| (l, v))));
     for (level, variant) in rungs {
         let t0 = Instant::now();
         let varied;
@@ -555,8 +556,9 @@ pub fn build_cells_attempts(
     Ok(Attempts { cells, valid: false })
 }
 
-/// The BSP tree variants ([`BspSettings::variant`] 1..=this) [`build_cells`] tries at the
-/// model's own tolerances after every tolerance level of variant 0 failed.
+/// The BSP tree variants ([`BspSettings::variant`] 1..=this) [`build_cells`] tries after
+/// every tolerance level of variant 0 failed: at the model's own tolerances, then at each
+/// fallback level.
 pub const BSP_VARIANTS: u32 = 4;
 
 /// The stage name of [`build_cells`]' checks (in [`Cells::checks`] and [`Run::stages`]).

@@ -235,7 +235,13 @@ fn e1m1_is_valid_and_fast() {
     assert_eq!(counts(&cx, &st), counts(&cx2, &st2));
     // All candidates (no sampling) also works; report its cost.
     let t = std::time::Instant::now();
-    let (cxa, sta) = bsp::build_complex_with(&m, &BspSettings { max_candidates: 0, variant: 0 });
+    let (cxa, sta) = bsp::build_complex_with(
+        &m,
+        &BspSettings {
+            max_candidates: 0,
+            variant: 0,
+        },
+    );
     println!(
         "e1m1, all candidates: {:.2} s, {} leaves, {} polygon splits, {} active cells",
         t.elapsed().as_secs_f64(),
