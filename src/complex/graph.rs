@@ -10,7 +10,68 @@ use std::collections::{HashMap, VecDeque};
 /// The portal of each cell pair, by (lower id, higher id): looked up only, never iterated,
 /// so its hasher (Fx, a multiply per id, instead of SipHash: millions of pairs at a million
 /// triangles) changes nothing but time.
-type PairMap = HashMap<(CellId, CellId), usize, crate::base::hash::FxBuild>;
+/// The portal of each cell pair, found from the pair's smaller cell: a list per cell
+/// threaded through the portals (`first[cell]`, then `next[portal]`; `u32::MAX` ends a
+/// list). Patch ids follow the tetrahedra, so the pairs' smaller cells come nearly in
+/// order and a lookup reads memory the previous ones touched (a hash map of the 3M pairs
+/// of a million triangles cost a cache miss per patch, half of this stage's time).
+struct PairIndex {
+    first: Vec<u32>,
+    next: Vec<u32>,
+}
+
+impl PairIndex {
+    fn new(cells: usize, portals: usize) -> Self {
+        PairIndex {
+            first: vec![u32::MAX; cells],
+            next: Vec::with_capacity(portals),
+        }
+    }
+
+    /// The portal of pair `key` (smaller id first) in `portals`, if any.
+    fn get(&self, portals: &[Portal], key: (CellId, CellId)) -> Option<usize> {
+        let mut k = self.first[key.0.idx()];
+        while k != u32::MAX {
+            if portals[k as usize].cells[1] == key.1 {
+                return Some(k as usize);
+            }
+            k = self.next[k as usize];
+        }
+        None
+    }
+
+    /// Files portal `k`, the next one (`k` = the number filed so far), under its pair's
+    /// smaller cell `a`.
+    fn insert(&mut self, a: CellId, k: usize) {
+        debug_assert_eq!(k, self.next.len());
+        self.next.push(self.first[a.idx()]);
+        self.first[a.idx()] = k as u32;
+    }
+}
+
+/// A portal's pieces between cells `a` and `b`, oriented from the smaller id to the larger
+/// (the key of the pair: the pieces reversed in place when `a > b`, the vertices of
+/// [`ConvexPolygon::reversed`]), each with its area.
+fn oriented(a: CellId, b: CellId, mut pieces: Vec<ConvexPolygon>) -> ((CellId, CellId), Vec<(ConvexPolygon, f64)>) {
+    let key = if a < b {
+        (a, b)
+    } else {
+        for p in &mut pieces {
+            if p.verts.len() > 1 {
+                p.verts[1..].reverse();
+            }
+        }
+        (b, a)
+    };
+    let pieces = pieces
+        .into_iter()
+        .map(|p| {
+            let area = p.area();
+            (p, area)
+        })
+        .collect();
+    (key, pieces)
+}
 
 /// Patches per block of the portal graph's parallel subtraction (see `build_graph`).
 const GRAPH_BLOCK: usize = 1 << 14;
@@ -55,11 +116,11 @@ type Link = (CellId, CellId, ConvexPolygon);
 /// The crack links of [`CellComplex::cracks`] before the region test: the sliver openings
 /// (`dropped`) between cell pairs that no portal joins (`by_pair`), grouped per pair and
 /// oriented from the smaller cell id to the larger, in a fixed order.
-fn crack_links(by_pair: &PairMap, dropped: Vec<Link>) -> Vec<Portal> {
+fn crack_links(by_pair: &PairIndex, portals: &[Portal], dropped: Vec<Link>) -> Vec<Portal> {
     let mut cracks: std::collections::BTreeMap<(CellId, CellId), Portal> = Default::default();
     for (a, b, q) in dropped {
         let (key, q) = if a < b { ((a, b), q) } else { ((b, a), q.reversed()) };
-        if by_pair.contains_key(&key) {
+        if by_pair.get(portals, key).is_some() {
             continue;
         }
         let p = cracks.entry(key).or_insert_with(|| Portal {
@@ -165,26 +226,25 @@ impl CellComplex {
             .filter(|&pi| between(pi).is_some_and(|(a, b)| !membrane[a.idx()] && !membrane[b.idx()]))
             .count()
             + links.len();
-        let mut by_pair: PairMap = HashMap::with_capacity_and_hasher(bound, Default::default());
+        let mut by_pair = PairIndex::new(self.cells.len(), bound);
         let mut portals: Vec<Portal> = Vec::with_capacity(bound);
-        let mut add = |a: CellId, b: CellId, pieces: Vec<ConvexPolygon>| {
-            // Orient from the smaller cell id to the larger.
-            let (key, pieces) = if a < b {
-                ((a, b), pieces)
-            } else {
-                ((b, a), pieces.iter().map(|p| p.reversed()).collect())
+        // `pieces` oriented from `key.0` to `key.1` ([`oriented`]), each with its area.
+        let mut add = |key: (CellId, CellId), pieces: Vec<(ConvexPolygon, f64)>| {
+            let k = match by_pair.get(&portals, key) {
+                Some(k) => k,
+                None => {
+                    portals.push(Portal {
+                        cells: [key.0, key.1],
+                        // Most pairs meet over one patch: held inline ([`Pieces`]).
+                        pieces: Pieces::new(),
+                        area: 0.0,
+                    });
+                    by_pair.insert(key.0, portals.len() - 1);
+                    portals.len() - 1
+                }
             };
-            let k = *by_pair.entry(key).or_insert_with(|| {
-                portals.push(Portal {
-                    cells: [key.0, key.1],
-                    // Most pairs meet over one patch: held inline ([`Pieces`]).
-                    pieces: Pieces::new(),
-                    area: 0.0,
-                });
-                portals.len() - 1
-            });
-            for p in pieces {
-                portals[k].area += p.area();
+            for (p, area) in pieces {
+                portals[k].area += area;
                 portals[k].pieces.push(p);
             }
         };
@@ -195,14 +255,22 @@ impl CellComplex {
         // sums and portal order are those of one thread.
         for start in (0..self.patches.len()).step_by(GRAPH_BLOCK) {
             let block = start..(start + GRAPH_BLOCK).min(self.patches.len());
+            // The pieces are also oriented and their areas taken here, on every core: the
+            // sequential loop below only files them (the same polygons and sums as
+            // orienting and measuring there).
             let open: Vec<_> = block
                 .clone()
                 .into_par_iter()
                 .with_min_len(64)
-                .map(|pi| between(pi).map(|_| self.open_and_sliver_pieces(PatchId(pi as u32))))
+                .map(|pi| {
+                    between(pi).map(|(a, b)| {
+                        let (pieces, sliver_pieces, s, sa) = self.open_and_sliver_pieces(PatchId(pi as u32));
+                        (oriented(a, b, pieces), sliver_pieces, s, sa)
+                    })
+                })
                 .collect();
             for (pi, o) in block.zip(open) {
-                let (Some((a, b)), Some((pieces, sliver_pieces, s, sa))) = (between(pi), o) else {
+                let (Some((a, b)), Some(((key, pieces), sliver_pieces, s, sa))) = (between(pi), o) else {
                     continue;
                 };
                 slivers += s;
@@ -214,14 +282,15 @@ impl CellComplex {
                 }
                 dropped.extend(sliver_pieces.into_iter().map(|q| (a, b, q)));
                 if !pieces.is_empty() {
-                    add(a, b, pieces);
+                    add(key, pieces);
                 }
             }
         }
         for (a, b, p) in links {
-            add(a, b, vec![p]);
+            let (key, pieces) = oriented(a, b, vec![p]);
+            add(key, pieces);
         }
-        self.cracks = crack_links(&by_pair, dropped);
+        self.cracks = crack_links(&by_pair, &portals, dropped);
         self.hull_through = hull;
         self.portals = portals;
         self.stats.slivers_discarded = slivers;
