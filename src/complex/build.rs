@@ -1,6 +1,7 @@
 //! Stages 1–4: cells from tetrahedra, conforming polygons, splitting, sealing cracks.
 
 use super::{Cell, CellComplex, ComplexStats, HULL, Occluder, Patch, PatchId, TetShape};
+use crate::base::hash::FxBuild;
 use crate::delaunay::{FACE_SLOTS, Tetrahedralization};
 use crate::geom::{
     Classification, ConvexPolygon, ConvexPolyhedron, Cut, Plane, PolygonSplit, PolyhedronSplit, min_volume,
@@ -242,7 +243,8 @@ impl CellComplex {
             .filter(|(_, on)| **on)
             .map(|(p, _)| if p.verts.len() > 3 { 2 * (p.verts.len() - 2) } else { 1 })
             .sum();
-        let mut wanted: HashMap<[u32; 3], Option<PatchId>> = HashMap::with_capacity(nfans);
+        let mut wanted: HashMap<[u32; 3], Option<PatchId>, FxBuild> =
+            HashMap::with_capacity_and_hasher(nfans, FxBuild::default());
         let fans = |p: &[VertexId], start: usize| -> Vec<[u32; 3]> {
             let n = p.len();
             (1..n - 1)
@@ -574,7 +576,7 @@ impl CellComplex {
         supports: &[Support],
         of: &[(usize, bool)],
         tets: &[TetId],
-        deferred: &HashMap<TetId, Vec<PolygonId>>,
+        deferred: &HashMap<TetId, Vec<PolygonId>, FxBuild>,
     ) -> Vec<TetId> {
         let mut refused_in = Vec::new();
         for &t in tets {
@@ -1511,7 +1513,7 @@ fn support_planes(model: &Model, pending: &[PolygonId], tol: &crate::Tolerances)
             .then(a.cmp(&b))
     });
     let mut supports: Vec<Support> = Vec::new();
-    let mut buckets: HashMap<[i64; 4], Vec<usize>> = HashMap::new();
+    let mut buckets: HashMap<[i64; 4], Vec<usize>, FxBuild> = HashMap::default();
     let mut of = vec![(0usize, false); pending.len()];
     // Buckets: normal in steps of 1/64, offset (measured from the model's centre, so a
     // slight tilt is not amplified by the distance to the origin) in steps of scale/64.
@@ -1660,11 +1662,11 @@ struct Placer {
     marks: Vec<u32>,
     epoch: u32,
     /// Live cells descending from each tetrahedron (only for split tetrahedra).
-    descendants: HashMap<TetId, Vec<CellId>>,
+    descendants: HashMap<TetId, Vec<CellId>, FxBuild>,
     /// One tetrahedron incident to each vertex.
     vertex_tet: Vec<u32>,
     /// Polygons that straddled a descendant of the tetrahedron without splitting it.
-    deferred: HashMap<TetId, Vec<PolygonId>>,
+    deferred: HashMap<TetId, Vec<PolygonId>, FxBuild>,
 }
 
 impl Placer {
@@ -1679,9 +1681,9 @@ impl Placer {
             queue: VecDeque::new(),
             marks: vec![0; ncells],
             epoch: 0,
-            descendants: HashMap::new(),
+            descendants: HashMap::default(),
             vertex_tet,
-            deferred: HashMap::new(),
+            deferred: HashMap::default(),
         }
     }
 
@@ -1730,7 +1732,7 @@ impl Placer {
         if start == u32::MAX {
             return out;
         }
-        let mut seen: HashSet<u32> = HashSet::new();
+        let mut seen: HashSet<u32, FxBuild> = HashSet::default();
         let mut stack = vec![start];
         seen.insert(start);
         while let Some(t) = stack.pop() {
