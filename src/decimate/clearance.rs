@@ -92,7 +92,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use super::MEAN_NORMAL_REL;
-use super::heap4::Heap4;
+use super::heap4::RunHeap;
 use super::heuristic::{PairContext, sanitize};
 use super::hull3::Hull3;
 use super::project::{Frame, P2, hull2, hull2_into, polygon_area};
@@ -1535,19 +1535,18 @@ fn run_inner(
         })
     };
     let requeue =
-        |comps: &[Comp], store: &mut LinkStore, heap: &mut Heap4<Key>, a: u32, b: u32, w: f64, saddle: f64| {
+        |comps: &[Comp], store: &mut LinkStore, heap: &mut RunHeap<Key>, a: u32, b: u32, w: f64, saddle: f64| {
             if let Some(e) = mark(comps, store, a, b, w, saddle) {
                 heap.push(Key::of(e));
             }
         };
     // Every live pair: at the start, and again after a constrained stretch (whose pairs
     // across groups were dropped from the heap). Only live components have links. The
-    // entries are appended and the heap order restored once (a bottom-up construction when
-    // the heap was empty): the heap's layout differs from pushing one by one, its pops do
-    // not ([`Heap4`]: a pop returns the greatest entry, and equal entries are the same
-    // bits).
-    let push_all = |comps: &[Comp], store: &mut LinkStore, heap: &mut Heap4<Key>, stats: &mut DecimationStats| {
-        let from = heap.len();
+    // entries are added at once, sorted into the queue's run ([`RunHeap`]): its layout
+    // differs from pushing one by one, its pops do not (a pop returns the greatest entry,
+    // and equal entries are the same bits).
+    let push_all = |comps: &[Comp], store: &mut LinkStore, heap: &mut RunHeap<Key>, stats: &mut DecimationStats| {
+        let mut bulk = Vec::with_capacity(stats.initial_pairs);
         for a in 0..comps.len() {
             if !comps[a].alive() {
                 continue;
@@ -1558,14 +1557,14 @@ fn run_inner(
                     stats.weights_computed += 1;
                     let w = weigh(&comps[a], &comps[b as usize], &l);
                     if let Some(e) = mark(comps, store, a as u32, b, w, l.saddle) {
-                        heap.push_unordered(Key::of(e));
+                        bulk.push(Key::of(e));
                     }
                 }
             }
         }
-        heap.restore(from);
+        heap.extend_bulk(bulk);
     };
-    let mut heap = Heap4::with_capacity(stats.initial_pairs * 2);
+    let mut heap = RunHeap::with_capacity(stats.initial_pairs);
     push_all(&comps, &mut store, &mut heap, &mut stats);
     stats.init_seconds = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
@@ -2045,7 +2044,7 @@ fn regions(comps: &[Comp]) -> usize {
 /// saddle, so skipping a push of that key never loses the pair.
 #[cfg(test)]
 mod queue_audit {
-    use super::{Comp, Heap4, Key, LinkStore};
+    use super::{Comp, Key, LinkStore, RunHeap};
     use std::cell::Cell;
 
     thread_local! {
@@ -2055,7 +2054,7 @@ mod queue_audit {
 
     /// Every 64th pop (a whole-heap check at every pop made the test take minutes): a
     /// wrong mark stays until its pair is weighed anew, so it is still seen.
-    pub fn check(comps: &[Comp], store: &LinkStore, heap: &Heap4<Key>) {
+    pub fn check(comps: &[Comp], store: &LinkStore, heap: &RunHeap<Key>) {
         if !ON.with(Cell::get) || !POPS.with(|p| p.replace(p.get() + 1)).is_multiple_of(64) {
             return;
         }

@@ -85,7 +85,7 @@ impl Hull3 {
         }
         // Directed edges of the visible faces; an edge whose twin is not among them is on
         // the horizon. The visible region of a convex hull is a topological disc.
-        let mut vis_edges: HashMap<(u32, u32), ()> = HashMap::new();
+        let mut vis_edges: HashMap<(u32, u32), (), crate::base::hash::FxBuild> = HashMap::default();
         for (k, f) in self.faces.iter().enumerate() {
             if visible[k] {
                 for e in 0..3 {
