@@ -107,31 +107,36 @@ impl CellComplex {
     /// Every alive patch names alive cells (or the hull) that hold it (part of
     /// [`check_valid`](Self::check_valid)).
     pub fn check_patch_cells(&self) -> Result<(), ComplexError> {
-        for (pi, p) in self.patches.iter().enumerate() {
-            if !p.alive {
-                continue;
-            }
-            for &c in &p.cells {
-                if c == HULL {
-                    continue;
+        // On every core; `find_map_first` returns the violation of the smallest patch id,
+        // as the sequential loop did.
+        let first = (0..self.patches.len())
+            .into_par_iter()
+            .with_min_len(1024)
+            .find_map_first(|pi| {
+                let p = &self.patches[pi];
+                if !p.alive {
+                    return None;
                 }
-                let cell = &self.cells[c.idx()];
-                if !cell.alive || !cell.tags().contains(&(pi as u32)) {
-                    return Err(ComplexError::Topology {
+                p.cells.iter().find_map(|&c| {
+                    if c == HULL {
+                        return None;
+                    }
+                    let cell = &self.cells[c.idx()];
+                    (!cell.alive || !cell.tags().contains(&(pi as u32))).then_some(ComplexError::Topology {
                         cell: c.0,
                         patch: pi as u32,
                         why: "cell does not hold the patch",
-                    });
-                }
-            }
-        }
-        Ok(())
+                    })
+                })
+            });
+        first.map_or(Ok(()), Err)
     }
 
     /// Each portal pair is listed once, ordered, and joins two active cells (part of
     /// [`check_valid`](Self::check_valid)).
     pub fn check_portals(&self) -> Result<(), ComplexError> {
-        let mut seen = std::collections::HashSet::with_capacity(self.portals.len());
+        let mut seen: std::collections::HashSet<(CellId, CellId), crate::base::hash::FxBuild> =
+            std::collections::HashSet::with_capacity_and_hasher(self.portals.len(), Default::default());
         for p in &self.portals {
             let [a, b] = p.cells;
             if !seen.insert((a, b)) {
@@ -237,10 +242,20 @@ impl CellComplex {
         let mut vol = 0.0;
         // Rounding bound of the volume sum (see `volume_rounding`).
         let mut rounding = 0.0;
-        for c in self.cells.iter().filter(|c| c.alive) {
-            count += 1;
-            vol += c.volume();
-            rounding += volume_rounding(&c.poly());
+        // Each cell's terms on every core, a block at a time, added in cell order.
+        const BLOCK: usize = 1 << 16;
+        for start in (0..self.cells.len()).step_by(BLOCK) {
+            let terms: Vec<(f64, f64)> = self.cells[start..(start + BLOCK).min(self.cells.len())]
+                .par_iter()
+                .with_min_len(256)
+                .filter(|c| c.alive)
+                .map(|c| (c.volume(), volume_rounding(&c.poly())))
+                .collect();
+            for (v, r) in terms {
+                count += 1;
+                vol += v;
+                rounding += r;
+            }
         }
         let rel = (vol - self.hull_volume).abs() / self.hull_volume;
         // Cells fill the hull when the sums agree to 1e-9 relative, or within the rounding
