@@ -344,6 +344,11 @@ pub struct Cells {
     /// The levels of [`build_cells`]' fallback ladder that were built and failed the
     /// checks, in order (empty when the model's own tolerances gave a valid complex).
     pub rejected: Vec<RejectedLevel>,
+    /// The no-crossing check ([`CellComplex::check_no_crossing`]) and its seconds, when
+    /// [`build_cells`] ran it beside the portal graph ([`CellComplex::build_beside`]: the
+    /// Delaunay path, whose cells are final by then — sealing changes portals and exterior
+    /// flags, never a cell); `None` otherwise.
+    pub crossing: Option<(Result<(), crate::complex::ComplexError>, f64)>,
 }
 
 /// The process's peak resident memory so far in MiB (Linux `VmHWM`; `None` elsewhere):
@@ -499,7 +504,11 @@ pub fn build_cells_attempts(
             };
             &coarser
         };
-        let mut cells = build_cells_unchecked(m, label, settings, progress)?;
+        let mut cells = build_cells_inner(m, label, settings, progress, true)?;
+        let (beside, beside_stage) = match cells.crossing.take() {
+            Some((r, secs)) => (Some(r), Some((BESIDE_STAGE.to_string(), secs))),
+            None => (None, None),
+        };
         // The cheap structural check on every build: never decimate (or write) a broken
         // complex. The full validation (`CellComplex::validate`) is `portalfind complex`'s.
         // A model polygon crossing a cell (a wall the portal graph does not see) is as
@@ -509,7 +518,7 @@ pub fn build_cells_attempts(
         // violation: a fuzz find's BSP complex passed the checks at levels 1-3 with a
         // patch whose portal area missed 1e-3 of it).
         let t1 = Instant::now();
-        let r = check(&cells.cx, m).and_then(|()| {
+        let r = check(&cells.cx, m, beside).and_then(|()| {
             if level == 0 && variant == 0 {
                 Ok(())
             } else {
@@ -530,6 +539,7 @@ pub fn build_cells_attempts(
                 if rejected_seconds > 0.0 {
                     cells.checks.push((REJECTED_STAGE.into(), rejected_seconds));
                 }
+                cells.checks.extend(beside_stage);
                 cells.checks.push((CHECKS_STAGE.into(), check_seconds));
                 cells.rejected = rejected;
                 return Ok(Attempts { cells, valid: true });
@@ -545,6 +555,7 @@ pub fn build_cells_attempts(
                     seconds,
                 });
                 if first.is_none() {
+                    cells.checks.extend(beside_stage);
                     cells.checks.push((CHECKS_STAGE.into(), check_seconds));
                     first = Some(cells);
                 }
@@ -567,10 +578,25 @@ pub const CHECKS_STAGE: &str = "checks (cells valid, no crossing)";
 /// `check_valid`, then `check_no_crossing`, as one result: both read the complex only and
 /// run on two threads (rayon), and the error is the one the sequence would return
 /// (`check_valid`'s first), so the outcome does not depend on the thread count.
-fn check(cx: &CellComplex, model: &Model) -> Result<(), crate::complex::ComplexError> {
-    let (valid, crossing) = rayon::join(|| cx.check_valid(), || cx.check_no_crossing(model));
-    valid.and(crossing)
+fn check(
+    cx: &CellComplex,
+    model: &Model,
+    crossing: Option<Result<(), crate::complex::ComplexError>>,
+) -> Result<(), crate::complex::ComplexError> {
+    match crossing {
+        // Run beside the portal graph on the same cells (nothing after it changes a cell:
+        // the exterior removal and sealing set flags, portals and leaks only).
+        Some(crossing) => cx.check_valid().and(crossing),
+        None => {
+            let (valid, crossing) = rayon::join(|| cx.check_valid(), || cx.check_no_crossing(model));
+            valid.and(crossing)
+        }
+    }
 }
+
+/// The stage name of the no-crossing check when it ran beside the portal graph
+/// ([`Cells::crossing`]): its own seconds, inside the portal graph's wall time.
+pub const BESIDE_STAGE: &str = "checks: no crossing (beside the portal graph)";
 
 /// [`build_cells`] without the structural check (for `portalfind complex`, which runs the
 /// full validation and reports every violation itself).
@@ -580,7 +606,21 @@ pub fn build_cells_unchecked(
     settings: &CellSettings,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<Cells, PipelineError> {
-    let mut cells = build_cells_unsealed(model, label, settings, progress)?;
+    build_cells_inner(model, label, settings, progress, false)
+}
+
+/// [`build_cells_unchecked`]; with `check_beside`, the Delaunay path also runs the
+/// no-crossing check beside the portal graph ([`Cells::crossing`]).
+fn build_cells_inner(
+    model: &Model,
+    label: &Path,
+    settings: &CellSettings,
+    progress: &mut dyn FnMut(Progress),
+    check_beside: bool,
+) -> Result<Cells, PipelineError> {
+    // Sealing (below) redoes the portal graph and the exterior removal only: it changes
+    // no cell, so a crossing check run beside the first portal graph still holds.
+    let mut cells = build_cells_unsealed(model, label, settings, progress, check_beside)?;
     if let Some(size) = settings.seal_holes {
         cells.sealed = match size.resolve(model) {
             None => cells.cx.seal_cracks_auto(model),
@@ -595,6 +635,7 @@ fn build_cells_unsealed(
     label: &Path,
     settings: &CellSettings,
     progress: &mut dyn FnMut(Progress),
+    check_beside: bool,
 ) -> Result<Cells, PipelineError> {
     match settings.subdivision {
         Subdivision::Delaunay => {
@@ -614,13 +655,23 @@ fn build_cells_unsealed(
             let tt = t0.elapsed().as_secs_f64();
             let mut memory = Vec::new();
             sample_peak(&mut memory, "delaunay tetrahedralization");
-            let cx = CellComplex::build_with_progress(model, &t, &mut |s, done, total| {
+            let mut report = |s, done, total| {
                 progress(Progress {
                     stage: Stage::Complex(s),
                     done,
                     total,
                 })
-            });
+            };
+            let (cx, crossing) = if check_beside {
+                let (cx, r) = CellComplex::build_beside(model, &t, &mut report, |cx| {
+                    let t = Instant::now();
+                    let r = cx.check_no_crossing(model);
+                    (r, t.elapsed().as_secs_f64())
+                });
+                (cx, Some(r))
+            } else {
+                (CellComplex::build_with_progress(model, &t, &mut report), None)
+            };
             Ok(Cells {
                 cx,
                 stats: SubdivisionStats::Delaunay(DelaunayStats {
@@ -633,6 +684,7 @@ fn build_cells_unsealed(
                 memory,
                 checks: Vec::new(),
                 rejected: Vec::new(),
+                crossing,
             })
         }
         Subdivision::Bsp => {
@@ -645,6 +697,7 @@ fn build_cells_unsealed(
                 memory: Vec::new(),
                 checks: Vec::new(),
                 rejected: Vec::new(),
+                crossing: None,
             })
         }
     }

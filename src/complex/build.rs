@@ -27,6 +27,20 @@ impl CellComplex {
         tet: &Tetrahedralization,
         progress: &mut dyn FnMut(&'static str, usize, usize),
     ) -> CellComplex {
+        Self::build_beside(model, tet, progress, |_| ()).0
+    }
+
+    /// [`CellComplex::build_with_progress`], running `beside` on the complex once its
+    /// cells are final (after splitting and sealing; portals, exterior flags and leaks
+    /// not yet set) on the other threads while the portal graph is built: a reader of
+    /// the cells' geometry, such as [`CellComplex::check_no_crossing`], then costs
+    /// little wall time (the portal graph is mostly sequential). Returns its result.
+    pub fn build_beside<R: Send>(
+        model: &Model,
+        tet: &Tetrahedralization,
+        progress: &mut dyn FnMut(&'static str, usize, usize),
+        beside: impl FnOnce(&CellComplex) -> R + Send,
+    ) -> (CellComplex, R) {
         let t0 = Instant::now();
         let mut cx = CellComplex::from_tets(model, tet);
         cx.stats.polygons = model.polygons.len();
@@ -89,7 +103,8 @@ impl CellComplex {
         cx.stats.stage("sealing cracks", t25.elapsed().as_secs_f64());
 
         let t3 = Instant::now();
-        cx.build_graph();
+        let (graph, r) = rayon::join(|| cx.graph(), || beside(&cx));
+        cx.set_graph(graph);
         cx.stats.stage("portal graph", t3.elapsed().as_secs_f64());
 
         let t4 = Instant::now();
@@ -99,7 +114,7 @@ impl CellComplex {
         let t5 = Instant::now();
         cx.shrink_storage();
         cx.stats.stage("compact storage", t5.elapsed().as_secs_f64());
-        cx
+        (cx, r)
     }
 
     /// Stage 1: one cell per finite tetrahedron, one patch per face.

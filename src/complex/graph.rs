@@ -49,6 +49,15 @@ impl PairIndex {
     }
 }
 
+/// What [`CellComplex::graph`] computes: the fields [`CellComplex::build_graph`] sets.
+pub(crate) struct Graph {
+    portals: Vec<Portal>,
+    cracks: Vec<Portal>,
+    hull_through: Vec<(CellId, [f64; 3])>,
+    slivers: usize,
+    sliver_area: f64,
+}
+
 /// A portal's pieces between cells `a` and `b`, oriented from the smaller id to the larger
 /// (the key of the pair: the pieces reversed in place when `a > b`, the vertices of
 /// [`ConvexPolygon::reversed`]), each with its area.
@@ -204,6 +213,22 @@ impl CellComplex {
 
     /// Stage 5: portals between alive cells, grouped per cell pair.
     pub(crate) fn build_graph(&mut self) {
+        let g = self.graph();
+        self.set_graph(g);
+    }
+
+    /// Installs a graph [`CellComplex::graph`] computed.
+    pub(crate) fn set_graph(&mut self, g: Graph) {
+        self.cracks = g.cracks;
+        self.hull_through = g.hull_through;
+        self.portals = g.portals;
+        self.stats.slivers_discarded = g.slivers;
+        self.stats.sliver_area = g.sliver_area;
+    }
+
+    /// [`CellComplex::build_graph`]'s portals, cracks and hull joins, computed from the
+    /// cells and patches only (so other readers of the complex can run beside it).
+    pub(crate) fn graph(&self) -> Graph {
         let (mut slivers, mut sliver_area) = (0usize, 0.0f64);
         let membrane: Vec<bool> = (0..self.cells.len())
             .into_par_iter()
@@ -290,11 +315,13 @@ impl CellComplex {
             let (key, pieces) = oriented(a, b, vec![p]);
             add(key, pieces);
         }
-        self.cracks = crack_links(&by_pair, &portals, dropped);
-        self.hull_through = hull;
-        self.portals = portals;
-        self.stats.slivers_discarded = slivers;
-        self.stats.sliver_area = sliver_area;
+        Graph {
+            cracks: crack_links(&by_pair, &portals, dropped),
+            hull_through: hull,
+            portals,
+            slivers,
+            sliver_area,
+        }
     }
 
     /// Portals across membranes ([`CellComplex::is_membrane`]). A flat tetrahedron (four nearly coplanar input points)
