@@ -88,7 +88,7 @@
 
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering as AtomicOrdering};
+use std::sync::atomic::{AtomicU32, AtomicU64, AtomicUsize, Ordering as AtomicOrdering};
 use std::time::Instant;
 
 use rayon::prelude::*;
@@ -1138,12 +1138,31 @@ pub fn tunnel_labels(cx: &CellComplex, field: &CellField, part: &super::Partitio
         .collect();
     let mut moved = false;
     // The flow node of each cell of the current pair's two groups (`u32::MAX`: none; reset
-    // after each pair).
-    let mut node: Vec<u32> = vec![u32::MAX; n];
+    // after each pair). Shared by the pairs of a wave: each writes and reads only its own
+    // groups' cells (a neighbour is read only when its label is one of the pair's).
+    let node: Vec<AtomicU32> = (0..n).map(|_| AtomicU32::new(u32::MAX)).collect();
+    let get = |c: u32| node[c as usize].load(AtomicOrdering::Relaxed);
+    let put = |c: u32, v: u32| node[c as usize].store(v, AtomicOrdering::Relaxed);
+    // Pair `(i, j)` sees the moves of every earlier pair that shares a group with it, so
+    // it runs in the wave after the last of them; the pairs of one wave share no group and
+    // run on every core, their moves applied after the wave in the pairs' order: the moves
+    // of the pairs in order, one at a time.
+    let mut last = vec![0usize; members.len()];
+    let mut waves: Vec<Vec<(u32, u32, f64)>> = Vec::new();
     for (i, j, saddle) in pairs {
+        let w = last[i as usize].max(last[j as usize]);
+        if w == waves.len() {
+            waves.push(Vec::new());
+        }
+        waves[w].push((i, j, saddle));
+        last[i as usize] = w + 1;
+        last[j as usize] = w + 1;
+    }
+    // The new members of `i` and `j` (`None`: the pair moves nothing).
+    let cut = |i: u32, j: u32, saddle: f64, members: &[Vec<u32>], label: &[u32]| -> Option<[Vec<u32>; 2]> {
         let level = (saddle * peak[i as usize].min(peak[j as usize])).sqrt();
         if !(level.is_finite() && level > 0.0) {
-            continue;
+            return None;
         }
         // Nodes 0 (source: i's cores) and 1 (sink: j's cores), then the other cells.
         let mut cells: Vec<u32> = Vec::new();
@@ -1151,24 +1170,24 @@ pub fn tunnel_labels(cx: &CellComplex, field: &CellField, part: &super::Partitio
         for &g in &[i, j] {
             for &c in &members[g as usize] {
                 if field.value[c as usize] >= level {
-                    node[c as usize] = (g == j) as u32;
+                    put(c, (g == j) as u32);
                     cores[(g == j) as usize] = true;
                 } else {
-                    node[c as usize] = 2 + cells.len() as u32;
+                    put(c, 2 + cells.len() as u32);
                     cells.push(c);
                 }
             }
         }
-        let reset = |node: &mut Vec<u32>, members: &[Vec<u32>]| {
+        let reset = || {
             for &g in &[i, j] {
                 for &c in &members[g as usize] {
-                    node[c as usize] = u32::MAX;
+                    put(c, u32::MAX);
                 }
             }
         };
         if !(cores[0] && cores[1]) || cells.is_empty() {
-            reset(&mut node, &members);
-            continue;
+            reset();
+            return None;
         }
         let m = 2 + cells.len();
         // Directed edges in insertion order (edge `e ^ 1` is `e` reversed), then each
@@ -1181,7 +1200,10 @@ pub fn tunnel_labels(cx: &CellComplex, field: &CellField, part: &super::Partitio
                     let (a, b, area) = ends[k as usize];
                     let o = if a == c { b } else { a };
                     // Each portal once (from its lower cell), both ends in the pair.
-                    let (x, y) = (node[c as usize], node[o as usize]);
+                    if label[o as usize] != i && label[o as usize] != j {
+                        continue;
+                    }
+                    let (x, y) = (get(c), get(o));
                     if x == u32::MAX || y == u32::MAX {
                         continue;
                     }
@@ -1277,7 +1299,7 @@ pub fn tunnel_labels(cx: &CellComplex, field: &CellField, part: &super::Partitio
         let mut next: [Vec<u32>; 2] = [Vec::new(), Vec::new()];
         for &g in &[i, j] {
             for &c in &members[g as usize] {
-                let x = node[c as usize] as usize;
+                let x = get(c) as usize;
                 let side = if x < 2 {
                     x
                 } else if reach[x] {
@@ -1287,18 +1309,28 @@ pub fn tunnel_labels(cx: &CellComplex, field: &CellField, part: &super::Partitio
                 } else {
                     tie
                 };
-                let want = [i, j][side];
-                if want != g {
-                    moved = true;
-                }
-                label[c as usize] = want;
                 next[side].push(c);
             }
         }
-        let [a, b] = next;
-        members[i as usize] = a;
-        members[j as usize] = b;
-        reset(&mut node, &members);
+        reset();
+        Some(next)
+    };
+    for wave in waves {
+        let cuts: Vec<Option<[Vec<u32>; 2]>> = wave
+            .par_iter()
+            .map(|&(i, j, saddle)| cut(i, j, saddle, &members, &label))
+            .collect();
+        for (&(i, j, _), next) in wave.iter().zip(cuts) {
+            let Some([a, b]) = next else { continue };
+            for (side, cells) in [(i, &a), (j, &b)] {
+                for &c in cells {
+                    moved |= label[c as usize] != side;
+                    label[c as usize] = side;
+                }
+            }
+            members[i as usize] = a;
+            members[j as usize] = b;
+        }
     }
     moved.then_some(label)
 }

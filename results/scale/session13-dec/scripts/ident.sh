@@ -1,7 +1,7 @@
 #!/bin/bash
 # usage: ident.sh NEWBIN [models...]; compares result.json (timings stripped) and weight_curve.csv with /tmp/pf-base
 NEW=$1; shift
-MODELS=${@:-"/work/wt-dec/models/thesis/*.obj /work/wt-dec/models/doors/nonaligned_doors.obj /work/wt-dec/models/quake/e1m1.obj /tmp/m/rooms5.obj /tmp/m/rooms13.obj"}
+MODELS=${@:-"/work/main/models/thesis/*.obj /work/main/models/doors/nonaligned_doors.obj /work/main/models/quake/e1m1.obj /tmp/m/rooms5.obj /tmp/m/rooms13.obj"}
 fail=0
 for m in $MODELS; do
   n=$(basename $m .obj)
