@@ -518,6 +518,8 @@ pub fn build_cells_attempts(
         // violation: a fuzz find's BSP complex passed the checks at levels 1-3 with a
         // patch whose portal area missed 1e-3 of it).
         let t1 = Instant::now();
+        // The cells are final: their volumes once, for the checks and everything after.
+        cells.cx.cache_volumes();
         let r = check(&cells.cx, m, beside).and_then(|()| {
             if level == 0 && variant == 0 {
                 Ok(())

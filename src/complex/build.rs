@@ -242,6 +242,7 @@ impl CellComplex {
             polygon_planes: Vec::new(),
             hull_through: Vec::new(),
             neighbour_log: Vec::new(),
+            volumes: Vec::new(),
         }
     }
 
@@ -1361,6 +1362,8 @@ impl CellComplex {
             p.occluders.extend(moved);
             self.patches[pw.new as usize].alive = false;
         }
+        // Cells change: volumes cached for final cells no longer hold.
+        self.volumes = Vec::new();
         for (o, poly) in plan.cells {
             self.cells[o.idx()].set_poly(poly);
         }

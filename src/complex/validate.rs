@@ -245,11 +245,16 @@ impl CellComplex {
         // Each cell's terms on every core, a block at a time, added in cell order.
         const BLOCK: usize = 1 << 16;
         for start in (0..self.cells.len()).step_by(BLOCK) {
-            let terms: Vec<(f64, f64)> = self.cells[start..(start + BLOCK).min(self.cells.len())]
-                .par_iter()
+            let terms: Vec<(f64, f64)> = (start..(start + BLOCK).min(self.cells.len()))
+                .into_par_iter()
                 .with_min_len(256)
-                .filter(|c| c.alive)
-                .map(|c| (c.volume(), volume_rounding(&c.poly())))
+                .filter(|&i| self.cells[i].alive)
+                .map(|i| {
+                    (
+                        self.cell_volume(CellId(i as u32)),
+                        volume_rounding(&self.cells[i].poly()),
+                    )
+                })
                 .collect();
             for (v, r) in terms {
                 count += 1;

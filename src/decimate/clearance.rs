@@ -1290,7 +1290,7 @@ pub fn tunnel_labels(cx: &CellComplex, field: &CellField, part: &super::Partitio
         // Cells between the least and the largest minimum cut (a tie: a tunnel of uniform
         // section) join the group of the higher peak (then the larger volume, then the
         // lower id): not the group they came from, which the collapse order chose.
-        let volume = |g: u32| -> f64 { members[g as usize].iter().map(|&c| cx.cells[c as usize].volume()).sum() };
+        let volume = |g: u32| -> f64 { members[g as usize].iter().map(|&c| cx.cell_volume(CellId(c))).sum() };
         let tie = match peak[i as usize].total_cmp(&peak[j as usize]) {
             Ordering::Greater => 0,
             Ordering::Less => 1,
@@ -1683,8 +1683,12 @@ fn merge<I: Ids>(
         .into_par_iter()
         .with_min_len(1024)
         .map(|l| {
-            let c = &cx.cells[ids.global(l) as usize];
-            if c.active() { c.volume() } else { 0.0 }
+            let id = CellId(ids.global(l));
+            if cx.cells[id.idx()].active() {
+                cx.cell_volume(id)
+            } else {
+                0.0
+            }
         })
         .collect();
     for (l, k) in comps.iter_mut().enumerate() {

@@ -372,7 +372,7 @@ impl Partition {
             .par_iter_mut()
             .map(|g| {
                 g.sort_unstable();
-                g.iter().map(|p| cx.cells[p.idx()].volume()).sum()
+                g.iter().map(|&p| cx.cell_volume(p)).sum()
             })
             .collect();
         let mut order: Vec<usize> = (0..groups.len()).collect();

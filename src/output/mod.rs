@@ -271,7 +271,7 @@ pub fn result_doc(
                     }
                     PieceDoc {
                         source_cell: p.0,
-                        volume: poly.volume(),
+                        volume: cx.cell_volume(p),
                         planes,
                         vertices: poly.vertices(),
                     }
