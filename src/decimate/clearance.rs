@@ -1010,7 +1010,16 @@ fn run_moved(
     }
     // Without a trace, the groups merge on every core (the same result).
     let grouped = match (gate, trace.is_none()) {
-        (Some(g), true) => run_grouped(cx, &field, &refined, settings, g, (&labels, next_weight), progress),
+        (Some(g), true) => run_grouped(
+            cx,
+            &field,
+            &refined,
+            settings,
+            g,
+            (&labels, next_weight),
+            first_stats.regions,
+            progress,
+        ),
         _ => None,
     };
     let mut second = match grouped {
@@ -2153,6 +2162,7 @@ fn merge<I: Ids>(
 /// clean-up runs on the assembled state as in the serial pass. When a group stops (a pair at
 /// or above the threshold) before other groups' last recorded pops, the serial pass stops
 /// every group there: those groups are merged again, each up to its pops taken so far.
+#[allow(clippy::too_many_arguments)]
 fn run_grouped(
     cx: &CellComplex,
     field: &CellField,
@@ -2160,6 +2170,7 @@ fn run_grouped(
     settings: &Settings,
     gate: ApertureGate,
     labels: (&[u32], f64),
+    regions: usize,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Option<Decimation> {
     let t0 = Instant::now();
@@ -2307,16 +2318,8 @@ fn run_grouped(
         initial_pairs: cross_pairs + runs.iter().map(|g| g.initial_pairs).sum::<usize>(),
         ..DecimationStats::default()
     };
-    // Connected regions of the live portals (as `regions` counts them at the start).
-    let mut owner: Vec<u32> = (0..n as u32).collect();
-    for k in (0..cx.portals.len()).filter(|&k| live(k)) {
-        let [a, b] = cx.portals[k].cells.map(|c| find(&mut owner, c.0));
-        owner[a.max(b) as usize] = a.min(b);
-    }
-    stats.regions = (0..n)
-        .filter(|&c| active(c) && find(&mut owner, c as u32) == c as u32)
-        .count();
-    drop(owner);
+    // The regions of the portal graph, which the first pass counted on the same cells.
+    stats.regions = regions;
     // Every pair is weighed at the start; the groups counted theirs.
     stats.weights_computed = cross_pairs as u64 + runs.iter().map(|g| g.weights).sum::<u64>();
 
@@ -2853,7 +2856,8 @@ mod tests {
                 };
                 let labels = (labels.as_slice(), next_weight);
                 let mut seen = Vec::new();
-                let got = run_grouped(&cx, &field, &cache, &settings, gate, labels, &mut |d, l| {
+                let regions = first.stats.regions;
+                let got = run_grouped(&cx, &field, &cache, &settings, gate, labels, regions, &mut |d, l| {
                     seen.push((d, l))
                 })
                 .expect("a threshold stop and labels of the complex's groups");
