@@ -527,14 +527,26 @@ impl CellComplex {
         for &(c, q) in &self.hull_through {
             hull_open.entry(c).or_insert((Vec::new(), q));
         }
-        for (pi, p) in self.patches.iter().enumerate() {
-            if p.alive && p.cells[1] == HULL && self.cells[p.cells[0].idx()].alive && !self.is_membrane(p.cells[0]) {
-                let (pieces, _, _) = self.open_pieces(PatchId(pi as u32));
-                if let Some(q) = pieces.first() {
-                    let q = q.centroid();
-                    hull_open.entry(p.cells[0]).or_insert((Vec::new(), q)).0.extend(pieces);
+        // Each hull patch's open pieces on every core, inserted in patch order (as one
+        // thread would).
+        let open: Vec<(CellId, Vec<ConvexPolygon>)> = self
+            .patches
+            .par_iter()
+            .with_min_len(1024)
+            .enumerate()
+            .filter_map(|(pi, p)| {
+                if !(p.alive && p.cells[1] == HULL && self.cells[p.cells[0].idx()].alive)
+                    || self.is_membrane(p.cells[0])
+                {
+                    return None;
                 }
-            }
+                let (pieces, _, _) = self.open_pieces(PatchId(pi as u32));
+                (!pieces.is_empty()).then_some((p.cells[0], pieces))
+            })
+            .collect();
+        for (c, pieces) in open {
+            let q = pieces[0].centroid();
+            hull_open.entry(c).or_insert((Vec::new(), q)).0.extend(pieces);
         }
         hull_open
     }
