@@ -2837,17 +2837,10 @@ mod tests {
                 let gate = settings.heuristic.heuristic().aperture_gate().unwrap();
                 let field = CellField::new(&cx);
                 let cache = RefinedCache::new(&cx);
-                let first = run_inner(
-                    &cx,
-                    &field,
-                    &cache,
-                    &settings,
-                    Some(gate),
-                    None,
-                    None,
-                    None,
-                    &mut |_, _| {},
-                );
+                let serial = |labels, progress: &mut dyn FnMut(usize, usize)| {
+                    run_inner(&cx, &field, &cache, &settings, Some(gate), None, None, labels, progress)
+                };
+                let first = serial(None, &mut |_, _| {});
                 let StopReason::Threshold { next_weight, .. } = first.stop else {
                     continue;
                 };
@@ -2863,17 +2856,7 @@ mod tests {
                 .expect("a threshold stop and labels of the complex's groups");
                 grouped += 1;
                 let mut told = Vec::new();
-                let want = run_inner(
-                    &cx,
-                    &field,
-                    &cache,
-                    &settings,
-                    Some(gate),
-                    None,
-                    None,
-                    Some(labels),
-                    &mut |d, l| told.push((d, l)),
-                );
+                let want = serial(Some(labels), &mut |d, l| told.push((d, l)));
                 let steps = |d: &Decimation| -> Vec<(u32, u32, u64, usize, u64)> {
                     d.steps
                         .iter()
