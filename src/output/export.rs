@@ -29,6 +29,9 @@ pub struct ExportContext<'a> {
     pub notes: super::Notes<'a>,
     /// Leave timings out of `result.json` ([`super::SetOptions::strip_timings`]).
     pub strip_timings: bool,
+    /// Manifest entries of files the exporters hashed while writing them
+    /// ([`super::HashingWriter`]), by final path; the others are read back and hashed.
+    pub hashed: &'a std::sync::Mutex<Vec<(PathBuf, super::FileEntry)>>,
 }
 
 impl ExportContext<'_> {

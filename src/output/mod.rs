@@ -35,8 +35,8 @@ pub use plot::{ScatterPoint, scatter};
 pub use prt::{MAX_POINTS_ON_WINDING, MAX_PORTALS_ON_LEAF, PrtFile, PrtLimits, PrtPortal, parse_prt, prt_file};
 pub use result_json::strip_timings_json;
 pub use set::{
-    FileEntry, MANIFEST_FILE, MANIFEST_SCHEMA, MANIFEST_VERSION, Manifest, SetOptions, Written, check_output_dir,
-    check_run, interrupt, read_manifest, remove_run, verify_file, write_run, write_run_with,
+    FileEntry, HashingWriter, MANIFEST_FILE, MANIFEST_SCHEMA, MANIFEST_VERSION, Manifest, SetOptions, Written,
+    check_output_dir, check_run, interrupt, read_manifest, remove_run, verify_file, write_run, write_run_with,
 };
 pub use svg::cells_svg;
 pub use viewer::{VIEWER_FILE, viewer_html, viewer_json};
@@ -131,16 +131,32 @@ fn par_seq<S: serde::Serializer, T: Serialize + Sync>(v: &[T], s: S) -> Result<S
     use rayon::prelude::*;
     use serde::ser::{Error, SerializeSeq};
     const BATCH: usize = 16;
-    let mut seq = s.serialize_seq(Some(v.len()))?;
-    for batch in v.chunks(BATCH) {
-        let raw: Vec<Result<Box<serde_json::value::RawValue>, serde_json::Error>> = batch
+    type Raw = Vec<Result<Box<serde_json::value::RawValue>, serde_json::Error>>;
+    let encode = |batch: &[T]| -> Raw {
+        batch
             .par_iter()
             .with_max_len(1)
             .map(serde_json::value::to_raw_value)
-            .collect();
-        for r in raw {
-            seq.serialize_element(&r.map_err(S::Error::custom)?)?;
-        }
+            .collect()
+    };
+    let mut seq = s.serialize_seq(Some(v.len()))?;
+    // Pipelined: while this thread writes a batch (and the writer hashes it), the next
+    // one is encoded by a task the other cores take.
+    let mut batches = v.chunks(BATCH);
+    let mut ready = batches.next().map(encode);
+    while let Some(raw) = ready.take() {
+        let mut next = None;
+        let mut written = Ok(());
+        rayon::in_place_scope(|sc| {
+            if let Some(b) = batches.next() {
+                sc.spawn(|_| next = Some(encode(b)));
+            }
+            written = raw
+                .into_iter()
+                .try_for_each(|r| seq.serialize_element(&r.map_err(S::Error::custom)?));
+        });
+        written?;
+        ready = next;
     }
     seq.end()
 }

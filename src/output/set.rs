@@ -161,6 +161,54 @@ fn entry_of_file(name: &str, path: &Path) -> Result<FileEntry, OutputError> {
     })
 }
 
+/// A writer that passes bytes on and hashes them on the way (FNV-1a 64, as
+/// [`entry_of_file`] would read them back): an exporter that writes through it records the
+/// manifest entry itself ([`ExportContext::hashed`]), saving the read-back of a large file.
+pub struct HashingWriter<W> {
+    inner: W,
+    hash: u64,
+    bytes: u64,
+}
+
+impl<W: std::io::Write> HashingWriter<W> {
+    /// Wraps `inner`.
+    pub fn new(inner: W) -> Self {
+        HashingWriter {
+            inner,
+            hash: 0xcbf2_9ce4_8422_2325,
+            bytes: 0,
+        }
+    }
+
+    /// The manifest entry of what was written, under `name`, and the inner writer.
+    pub fn finish(self, name: &str) -> (FileEntry, W) {
+        let e = FileEntry {
+            name: name.to_string(),
+            bytes: self.bytes,
+            fnv1a64: format!("{:016x}", self.hash),
+        };
+        (e, self.inner)
+    }
+}
+
+impl<W: std::io::Write> std::io::Write for HashingWriter<W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let k = self.inner.write(buf)?;
+        let mut h = self.hash;
+        for &b in &buf[..k] {
+            h ^= u64::from(b);
+            h = h.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+        self.hash = h;
+        self.bytes += k as u64;
+        Ok(k)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
+}
+
 fn entry_of(name: &str, bytes: &[u8]) -> FileEntry {
     FileEntry {
         name: name.to_string(),
@@ -501,7 +549,9 @@ pub fn write_run_with(
             source: format!("unknown export format; use one of {}", known.join(", ")).into(),
         });
     }
+    let hashed = Mutex::new(Vec::new());
     let ctx = ExportContext {
+        hashed: &hashed,
         dir: &staging,
         model,
         doc,
@@ -607,14 +657,25 @@ fn chosen(x: &dyn Exporter, export: &[String]) -> bool {
     x.opt_in().is_none_or(|k| export.iter().any(|e| e == k))
 }
 
-/// The manifest entry of a staged file (its name and streamed hash).
-fn hash_staged(p: &Path) -> Result<(String, FileEntry), OutputError> {
+/// The manifest entry of a staged file (its name and hash: the one its exporter recorded
+/// while writing it, else streamed back from the file).
+fn hash_staged(ctx: &ExportContext<'_>, p: &Path) -> Result<(String, FileEntry), OutputError> {
     let name = p
         .file_name()
         .ok_or_else(|| OutputError::NoFileName { path: p.to_path_buf() })?
         .to_string_lossy()
         .into_owned();
-    let entry = entry_of_file(&name, p)?;
+    let recorded = ctx
+        .hashed
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .iter()
+        .find(|(q, e)| q == p && e.name == name)
+        .map(|(_, e)| e.clone());
+    let entry = match recorded {
+        Some(e) => e,
+        None => entry_of_file(&name, p)?,
+    };
     Ok((name, entry))
 }
 
@@ -642,7 +703,7 @@ fn stage(list: &[Box<dyn Exporter>], ctx: &ExportContext<'_>, opts: &SetOptions<
         .map(|&i| {
             interrupted()?;
             let paths = list[i].write(ctx)?;
-            let hashed = paths.iter().map(|p| hash_staged(p)).collect();
+            let hashed = paths.iter().map(|p| hash_staged(ctx, p)).collect();
             Ok((paths, hashed))
         })
         .collect();
@@ -798,6 +859,36 @@ mod tests {
             );
         }
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// The entry hashed on the way out equals the entry of the bytes, whatever the split
+    /// of the writes (a short-writing inner writer included).
+    #[test]
+    fn hashing_writer_entry_equals_the_entry_of_the_bytes() {
+        use std::io::Write;
+        struct Short(Vec<u8>);
+        impl Write for Short {
+            fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+                let k = b.len().min(7);
+                self.0.extend_from_slice(&b[..k]);
+                Ok(k)
+            }
+            fn flush(&mut self) -> std::io::Result<()> {
+                Ok(())
+            }
+        }
+        let bytes: Vec<u8> = (0..100_003u32)
+            .map(|i| (i.wrapping_mul(2_654_435_761) >> 11) as u8)
+            .collect();
+        for len in [0, 1, 4096, bytes.len()] {
+            let mut w = HashingWriter::new(Short(Vec::new()));
+            for chunk in bytes[..len].chunks(1000) {
+                w.write_all(chunk).unwrap();
+            }
+            let (e, inner) = w.finish("f.bin");
+            assert_eq!(inner.0, &bytes[..len]);
+            assert_eq!(e, entry_of("f.bin", &bytes[..len]), "{len}");
+        }
     }
 
     #[test]
