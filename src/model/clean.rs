@@ -2,6 +2,8 @@
 
 use std::collections::HashMap;
 
+use rayon::prelude::*;
+
 use super::error::ModelError;
 use super::report::CleaningReport;
 use super::triangulate::{Shape, classify};
@@ -255,77 +257,138 @@ pub(crate) fn clean(name: &str, file: &str, soup: Soup) -> Result<Model, ModelEr
     let (weld_map, welded) = weld(&vertices, lo, tolerances.weld_abs());
     report.welded_vertices = nv - welded.len();
 
-    // 3. Degenerate polygons.
+    // 3. Degenerate polygons: each remapped in place and tested on its own, in parallel
+    // (rayon); `kept` lists the survivors in input order.
+    let mut polygons = polygons;
     let area2_min = 2.0 * tolerances.area_abs();
-    let mut kept: Vec<(Vec<u32>, [f64; 3], RawPolygon)> = Vec::with_capacity(polygons.len());
-    for mut rp in polygons {
-        // Remap in place, dropping consecutive repeats (cyclically).
-        let mut vs = std::mem::take(&mut rp.verts);
-        let mut w = 0;
-        for r in 0..vs.len() {
-            let x = weld_map[vs[r] as usize];
-            if w == 0 || vs[w - 1] != x {
-                vs[w] = x;
-                w += 1;
+    let normals: Vec<Option<[f64; 3]>> = polygons
+        .par_iter_mut()
+        .map(|rp| {
+            // Remap in place, dropping consecutive repeats (cyclically).
+            let vs = &mut rp.verts;
+            let mut w = 0;
+            for r in 0..vs.len() {
+                let x = weld_map[vs[r] as usize];
+                if w == 0 || vs[w - 1] != x {
+                    vs[w] = x;
+                    w += 1;
+                }
             }
-        }
-        vs.truncate(w);
-        while vs.len() > 1 && vs.first() == vs.last() {
-            vs.pop();
-        }
-        let nrm = newell(vs.iter().map(|&v| &welded[v as usize]));
-        let len = (nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]).sqrt();
-        if !has_three_distinct(&vs) || all_collinear(&welded, &vs) || len.is_nan() || len < area2_min || len <= 0.0 {
-            report.zero_area_polygons_dropped += 1;
-            continue;
-        }
-        kept.push((vs, nrm, rp));
-    }
+            vs.truncate(w);
+            while vs.len() > 1 && vs.first() == vs.last() {
+                vs.pop();
+            }
+            let nrm = newell(vs.iter().map(|&v| &welded[v as usize]));
+            let len = (nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]).sqrt();
+            let degenerate =
+                !has_three_distinct(vs) || all_collinear(&welded, vs) || len.is_nan() || len < area2_min || len <= 0.0;
+            (!degenerate).then_some(nrm)
+        })
+        .collect();
+    let kept: Vec<u32> = (0..polygons.len() as u32)
+        .filter(|&i| normals[i as usize].is_some())
+        .collect();
+    report.zero_area_polygons_dropped += polygons.len() - kept.len();
+    let verts_of = |k: usize| polygons[kept[k] as usize].verts.as_slice();
 
     // 4. Duplicates: sort the polygons by their canonical rotation; in each group of equal
-    // ones the first in input order survives.
-    let mut arena: Vec<u32> = Vec::with_capacity(kept.iter().map(|k| k.0.len()).sum());
+    // ones the first in input order survives. The canonical rotations are found in
+    // parallel, and sorting by (rotation, index), a total order, gives the same order on
+    // any number of threads.
+    let starts: Vec<u32> = (0..kept.len())
+        .into_par_iter()
+        .map(|k| canonical_start(verts_of(k)) as u32)
+        .collect();
+    let mut arena: Vec<u32> = Vec::with_capacity((0..kept.len()).map(|k| verts_of(k).len()).sum());
     let mut off: Vec<usize> = Vec::with_capacity(kept.len() + 1);
     off.push(0);
-    for (vs, _, _) in &kept {
-        write_canonical(vs, &mut arena);
+    for (k, &s) in starts.iter().enumerate() {
+        let vs = verts_of(k);
+        arena.extend_from_slice(&vs[s as usize..]);
+        arena.extend_from_slice(&vs[..s as usize]);
         off.push(arena.len());
     }
+    drop(starts);
     let key = |i: u32| &arena[off[i as usize]..off[i as usize + 1]];
     let mut order: Vec<u32> = (0..kept.len() as u32).collect();
-    order.sort_unstable_by(|&a, &b| key(a).cmp(key(b)).then(a.cmp(&b)));
+    order.par_sort_unstable_by(|&a, &b| key(a).cmp(key(b)).then(a.cmp(&b)));
     let mut dup = vec![false; kept.len()];
     for w in order.windows(2) {
         if key(w[0]) == key(w[1]) {
             dup[w[1] as usize] = true;
         }
     }
-    let (mut rev, mut rev_key) = (Vec::new(), Vec::new());
-    for (i, (vs, _, _)) in kept.iter().enumerate() {
-        if dup[i] {
-            report.duplicate_polygons_dropped += 1;
-            continue;
-        }
-        rev.clear();
-        rev.extend(vs.iter().rev());
-        rev_key.clear();
-        write_canonical(&rev, &mut rev_key);
-        let pos = order.partition_point(|&j| key(j) < rev_key.as_slice());
-        if let Some(&j) = order.get(pos)
-            && key(j) == rev_key.as_slice()
-            && (j as usize) < i
-        {
-            report.two_sided_pairs += 1;
-        }
+    report.duplicate_polygons_dropped += dup.iter().filter(|&&d| d).count();
+    // Two-sided pairs: counted per polygon in parallel (a sum of counts). A polygon's
+    // reversed rotation starts with its least vertex `m` as its own does, so it can only
+    // equal keys in `order`'s block of keys starting with `m` (`block[m]..block[m + 1]`;
+    // the partition point there is the partition point in all of `order`).
+    let mut block = vec![0u32; welded.len() + 1];
+    for &k in &order {
+        block[key(k)[0] as usize + 1] += 1;
     }
-    drop((arena, off, order));
-    let kept: Vec<_> = kept.into_iter().zip(dup).filter(|(_, d)| !d).map(|(k, _)| k).collect();
+    for m in 0..welded.len() {
+        block[m + 1] += block[m];
+    }
+    report.two_sided_pairs += (0..kept.len())
+        .into_par_iter()
+        .map_init(
+            || (Vec::new(), Vec::new()),
+            |(rev, rev_key), i| {
+                if dup[i] {
+                    return 0;
+                }
+                rev.clear();
+                rev.extend(verts_of(i).iter().rev());
+                rev_key.clear();
+                write_canonical(rev, rev_key);
+                let m = rev_key[0] as usize;
+                let (a, b) = (block[m] as usize, block[m + 1] as usize);
+                let pos = a + order[a..b].partition_point(|&j| key(j) < rev_key.as_slice());
+                match order[..b].get(pos) {
+                    Some(&j) if key(j) == rev_key.as_slice() && (j as usize) < i => 1,
+                    _ => 0,
+                }
+            },
+        )
+        .sum::<usize>();
+    drop((arena, off, order, block));
+    let kept: Vec<u32> = kept.iter().zip(dup).filter(|(_, d)| !d).map(|(&k, _)| k).collect();
 
-    // 5. Planarity / convexity.
-    let mut out: Vec<(Vec<u32>, RawPolygon)> = Vec::with_capacity(kept.len());
-    for (vs, nrm, rp) in kept {
-        match classify(&welded, &vs, nrm) {
-            Shape::Keep => out.push((vs, rp)),
+    // 5. Planarity / convexity, classified in parallel (rayon); then, in input order, the
+    // counts, the first refused polygon, and
+    // 6. unused vertices: the vertices are numbered by first use.
+    let shapes: Vec<Shape> = kept
+        .par_iter()
+        .map(|&pi| {
+            let nrm = normals[pi as usize].unwrap_or_default();
+            classify(&welded, &polygons[pi as usize].verts, nrm)
+        })
+        .collect();
+    drop(normals);
+    let mut remap = vec![u32::MAX; welded.len()];
+    let mut final_vertices: Vec<[f64; 3]> = Vec::new();
+    let mut final_polys: Vec<Polygon> = Vec::with_capacity(kept.len());
+    let mut number = |vs: &[u32]| -> Vec<VertexId> {
+        vs.iter()
+            .map(|&v| {
+                let r = &mut remap[v as usize];
+                if *r == u32::MAX {
+                    *r = final_vertices.len() as u32;
+                    final_vertices.push(welded[v as usize]);
+                }
+                VertexId(*r)
+            })
+            .collect()
+    };
+    for (&pi, shape) in kept.iter().zip(shapes) {
+        let rp = &mut polygons[pi as usize];
+        match shape {
+            Shape::Keep => final_polys.push(Polygon {
+                verts: number(&rp.verts),
+                source: rp.source,
+                material: rp.material.take(),
+            }),
             Shape::Triangulated {
                 tris,
                 nonplanar,
@@ -349,7 +412,7 @@ pub(crate) fn clean(name: &str, file: &str, soup: Soup) -> Result<Model, ModelEr
                         found: format!(
                             "{} non-coplanar vertices whose outline crosses itself in projection \
                              (up to {} such vertices are triangulated by minimum area in 3D)",
-                            vs.len(),
+                            rp.verts.len(),
                             super::triangulate::MIN_AREA_MAX_VERTICES
                         ),
                     });
@@ -360,42 +423,19 @@ pub(crate) fn clean(name: &str, file: &str, soup: Soup) -> Result<Model, ModelEr
                 report.min_area_triangulated += min_area as usize;
                 report.triangles_from_triangulation += tris.len();
                 for t in tris {
-                    let src = RawPolygon {
-                        verts: Vec::new(),
+                    final_polys.push(Polygon {
+                        verts: number(&t),
                         source: rp.source,
                         material: rp.material.clone(),
-                    };
-                    out.push((t.to_vec(), src));
+                    });
                 }
             }
         }
     }
-    if out.is_empty() {
+    if final_polys.is_empty() {
         return Err(all_dropped(file, &report));
     }
-
-    // 6. Unused vertices.
-    let mut remap = vec![u32::MAX; welded.len()];
-    let mut final_vertices: Vec<[f64; 3]> = Vec::new();
-    let mut final_polys: Vec<Polygon> = Vec::with_capacity(out.len());
-    for (vs, rp) in out {
-        let verts = vs
-            .into_iter()
-            .map(|v| {
-                let r = &mut remap[v as usize];
-                if *r == u32::MAX {
-                    *r = final_vertices.len() as u32;
-                    final_vertices.push(welded[v as usize]);
-                }
-                VertexId(*r)
-            })
-            .collect();
-        final_polys.push(Polygon {
-            verts,
-            source: rp.source,
-            material: rp.material,
-        });
-    }
+    drop((polygons, kept));
     report.unused_vertices = welded.len() - final_vertices.len();
     report.final_vertices = final_vertices.len();
     report.final_polygons = final_polys.len();
@@ -501,6 +541,14 @@ fn has_three_distinct(vs: &[u32]) -> bool {
 
 /// Appends the lexicographically smallest rotation of the cyclic sequence `vs` to `out`.
 fn write_canonical(vs: &[u32], out: &mut Vec<u32>) {
+    let s = canonical_start(vs);
+    out.extend_from_slice(&vs[s..]);
+    out.extend_from_slice(&vs[..s]);
+}
+
+/// The start of the lexicographically smallest rotation of the cyclic sequence `vs` (the
+/// first such start; 0 for an empty one).
+fn canonical_start(vs: &[u32]) -> usize {
     let n = vs.len();
     let min = vs.iter().copied().min().unwrap_or(0);
     let mut best: Option<usize> = None;
@@ -514,18 +562,261 @@ fn write_canonical(vs: &[u32], out: &mut Vec<u32>) {
             }
         });
     }
-    let s = best.unwrap_or(0);
-    out.extend_from_slice(&vs[s..]);
-    out.extend_from_slice(&vs[..s]);
+    best.unwrap_or(0)
 }
 
-/// Welds vertices closer than `d`, visiting them in order; each merges into the nearest earlier
-/// survivor. Returns the map input index -> survivor index and the survivors' coordinates.
+/// Coarse cells of the parallel weld are `WELD_COARSE` weld cells (of size `2d`) per axis,
+/// shifted by half of that so that a vertex on the bounding box's low face (weld cell 0,
+/// its box reaching cell -1) is inside one: the weld box of a vertex then lies in one coarse
+/// cell on an axis unless it straddles the coarse boundary (about 1 in 256).
+const WELD_COARSE: i64 = 256;
+
+/// A coarse cell holding more vertices than this is resolved by the sequential pass of
+/// [`weld`] (its cost is quadratic in the cell, as for its neighbours).
+const WELD_MAX_RUN: usize = 64;
+
+/// Coarse cells are clamped to `2^21` per axis (three in a `u64`); clamping is monotone, so
+/// far stray vertices only share the extreme coarse cells.
+const WELD_KEY_BITS: u32 = 21;
+
+/// The weld grid's cell of `x` on axis `k` (cell size `h = 2d`, relative to `origin`); `as`
+/// saturates, so coordinates far outside the bounding box share extreme cells. The same
+/// expression as [`weld_sequential`]'s, so both see the same cells.
+fn weld_cell(x: f64, k: usize, origin: [f64; 3], h: f64) -> i64 {
+    ((x - origin[k]) / h).floor() as i64
+}
+
+/// The weld cell of `p` and the box of cells its search covers (`p - d ..= p + d`).
+fn weld_box(p: &[f64; 3], origin: [f64; 3], d: f64) -> ([i64; 3], [i64; 3], [i64; 3]) {
+    let h = 2.0 * d;
+    let c = std::array::from_fn(|k| weld_cell(p[k], k, origin, h));
+    let lo = std::array::from_fn(|k| weld_cell(p[k] - d, k, origin, h));
+    let hi = std::array::from_fn(|k| weld_cell(p[k] + d, k, origin, h));
+    (c, lo, hi)
+}
+
+/// The coarse cell of weld cell `c` on one axis: a monotone (non-decreasing) function of `c`,
+/// in `0..2^WELD_KEY_BITS`.
+fn weld_coarse1(c: i64) -> u64 {
+    let half = 1i64 << (WELD_KEY_BITS - 1);
+    (c.saturating_add(WELD_COARSE / 2)
+        .div_euclid(WELD_COARSE)
+        .clamp(-half, half - 1)
+        + half) as u64
+}
+
+/// The coarse cell of a weld cell, packed so that numeric order is lexicographic order.
+fn weld_coarse(c: [i64; 3]) -> u64 {
+    (weld_coarse1(c[0]) << (2 * WELD_KEY_BITS)) | (weld_coarse1(c[1]) << WELD_KEY_BITS) | weld_coarse1(c[2])
+}
+
+/// The squared distance of the weld, in [`weld_sequential`]'s operation order.
+fn weld_dist2(p: &[f64; 3], q: &[f64; 3]) -> f64 {
+    (0..3).map(|k| (p[k] - q[k]) * (p[k] - q[k])).sum()
+}
+
+/// Welds vertices closer than `d`: the result of [`weld_sequential`] (each vertex, in input
+/// order, merges into the nearest earlier survivor within `d`, ties to the lower survivor
+/// index, else survives), computed mostly in parallel (rayon), the same for any thread count.
+/// Returns the map input index -> survivor index and the survivors' coordinates.
+///
+/// Write `c(j)` for the weld cell of vertex `j`, `B(i)` for the box of cells
+/// `weld_cell(p_i - d) ..= weld_cell(p_i + d)` that the sequential weld searches for vertex
+/// `i`, and `R(i, j)` for "`c(j)` lies in `B(i)` and `weld_dist2(p_i, p_j) < d²`". The
+/// sequential weld stores a survivor under its cell and scans exactly the cells of `B(i)`, so
+/// it keeps `i` when no earlier survivor `j` has `R(i, j)`, and otherwise merges it into the
+/// minimum of those by `(dist2, survivor index)`, i.e. by `(dist2, j)`: survivor indices
+/// are counted in input order. So `i`'s fate depends only on the fates of the `j < i` with
+/// `R(i, j)`. Here:
+///
+/// 1. The vertices are sorted (in parallel) by coarse cell ([`weld_coarse`], a monotone
+///    function of the weld cell: `R(i, j)` puts `j`'s coarse cell in the coarse box of
+///    `B(i)`), then by index; a coarse cell's vertices are a run of the sorted array.
+/// 2. A run whose every vertex's coarse box is the run's own cell is *closed*: every `j` with
+///    `R(i, j)` for a vertex `i` of it is in the run. Each closed run (of at most
+///    [`WELD_MAX_RUN`] vertices) is welded on its own, in parallel, in index order, by the
+///    sequential rule over its earlier survivors. By induction in index order, each of its
+///    vertices gets the sequential weld's fate (the candidates are the same vertices with
+///    the same fates, and the minimum is over the same `(dist2, j)`).
+/// 3. The other vertices (about 1% of them) are *pending*; their candidates `j < i` with
+///    `R(i, j)` are listed in parallel from the runs of their coarse box, and one
+///    sequential pass in input order resolves each by the same rule over the listed `j`
+///    that survived. A listed `j` is in a closed run (fate final after step 2) or pending and
+///    earlier (resolved before `i`), so by induction in input order each pending vertex gets
+///    the sequential weld's fate too.
+/// 4. Survivors are numbered in input order, as the sequential weld numbers them.
+///
+/// Should listing the pending vertices' candidates cost more than a few times the vertex
+/// count (thousands of copies of one point, which the sequential weld merges in linear time
+/// into their one survivor), [`weld_sequential`] runs instead.
+fn weld(pts: &[[f64; 3]], origin: [f64; 3], d: f64) -> (Vec<u32>, Vec<[f64; 3]>) {
+    match weld_targets(pts, origin, d, WELD_MAX_RUN, 32 * pts.len() + 65_536) {
+        Some(target) => number_survivors(pts, &target),
+        None => weld_sequential(pts, origin, d),
+    }
+}
+
+/// Steps 1 to 3 of [`weld`]: for each vertex, the input index of the vertex it merges into,
+/// or its own index when it survives. Runs longer than `max_run` are pending; `None` when
+/// listing the pending vertices' candidates would scan more than `budget` vertices.
+fn weld_targets(pts: &[[f64; 3]], origin: [f64; 3], d: f64, max_run: usize, budget: usize) -> Option<Vec<u32>> {
+    use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
+    const PENDING: u32 = u32::MAX;
+    let n = pts.len();
+    let d2 = d * d;
+    // 1. (coarse cell, index), sorted.
+    let mut sorted: Vec<u128> = pts
+        .par_iter()
+        .enumerate()
+        .map(|(i, p)| ((weld_coarse(weld_box(p, origin, d).0) as u128) << 32) | i as u128)
+        .collect();
+    sorted.par_sort_unstable();
+    let key = |e: u128| (e >> 32) as u64;
+    let idx = |e: u128| e as u32;
+    let starts: Vec<usize> = (0..n)
+        .into_par_iter()
+        .filter(|&r| r == 0 || key(sorted[r]) != key(sorted[r - 1]))
+        .collect();
+    let run_end = |ri: usize| starts.get(ri + 1).copied().unwrap_or(n);
+
+    // 2. Closed runs, each on its own.
+    let target: Vec<AtomicU32> = (0..n).into_par_iter().map(|_| AtomicU32::new(PENDING)).collect();
+    (0..starts.len()).into_par_iter().for_each(|ri| {
+        let run = &sorted[starts[ri]..run_end(ri)];
+        if run.len() > max_run.min(WELD_MAX_RUN) {
+            return;
+        }
+        let own = key(run[0]);
+        let mut survivors = [(0u32, [0i64; 3]); WELD_MAX_RUN];
+        let mut ns = 0;
+        let mut fates = [0u32; WELD_MAX_RUN];
+        for (m, &e) in run.iter().enumerate() {
+            let i = idx(e);
+            let p = &pts[i as usize];
+            let (c, lo, hi) = weld_box(p, origin, d);
+            if weld_coarse(lo) != own || weld_coarse(hi) != own {
+                return; // not closed: every vertex of the run stays pending
+            }
+            let mut best: Option<(f64, u32)> = None;
+            for &(j, cj) in &survivors[..ns] {
+                if (0..3).all(|k| lo[k] <= cj[k] && cj[k] <= hi[k]) {
+                    let dist2 = weld_dist2(p, &pts[j as usize]);
+                    if dist2 < d2 && best.is_none_or(|(bd, bj)| dist2 < bd || (dist2 == bd && j < bj)) {
+                        best = Some((dist2, j));
+                    }
+                }
+            }
+            fates[m] = match best {
+                Some((_, j)) => j,
+                None => {
+                    survivors[ns] = (i, c);
+                    ns += 1;
+                    i
+                }
+            };
+        }
+        for (&e, &f) in run.iter().zip(&fates) {
+            target[idx(e) as usize].store(f, Relaxed);
+        }
+    });
+    let mut target: Vec<u32> = target.into_iter().map(AtomicU32::into_inner).collect();
+
+    // 3. Pending vertices: candidates in parallel, fates in input order.
+    let mut pending: Vec<u32> = sorted
+        .par_iter()
+        .map(|&e| idx(e))
+        .filter(|&i| target[i as usize] == PENDING)
+        .collect();
+    pending.par_sort_unstable();
+    // The runs of the coarse cells of `i`'s box.
+    let runs_of = |i: u32| {
+        let (_, lo, hi) = weld_box(&pts[i as usize], origin, d);
+        let (clo, chi) = (lo.map(weld_coarse1), hi.map(weld_coarse1));
+        let mut ranges = Vec::new();
+        for x in clo[0]..=chi[0] {
+            for y in clo[1]..=chi[1] {
+                for z in clo[2]..=chi[2] {
+                    let k = (x << (2 * WELD_KEY_BITS)) | (y << WELD_KEY_BITS) | z;
+                    let a = sorted.partition_point(|&e| key(e) < k);
+                    let b = a + sorted[a..].partition_point(|&e| key(e) == k);
+                    ranges.push((a, b));
+                }
+            }
+        }
+        (lo, hi, ranges)
+    };
+    let cost: usize = pending
+        .par_iter()
+        .map(|&i| runs_of(i).2.iter().map(|(a, b)| b - a).sum::<usize>())
+        .sum();
+    if cost > budget {
+        return None;
+    }
+    let candidates: Vec<Vec<u32>> = pending
+        .par_iter()
+        .map(|&i| {
+            let (lo, hi, ranges) = runs_of(i);
+            let p = &pts[i as usize];
+            let mut out = Vec::new();
+            for (a, b) in ranges {
+                for &e in &sorted[a..b] {
+                    let j = idx(e);
+                    if j >= i {
+                        continue;
+                    }
+                    let q = &pts[j as usize];
+                    let (cj, _, _) = weld_box(q, origin, d);
+                    if (0..3).all(|k| lo[k] <= cj[k] && cj[k] <= hi[k]) && weld_dist2(p, q) < d2 {
+                        out.push(j);
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    for (&i, cands) in pending.iter().zip(&candidates) {
+        let p = &pts[i as usize];
+        let mut best: Option<(f64, u32)> = None;
+        for &j in cands {
+            if target[j as usize] != j {
+                continue; // merged
+            }
+            let dist2 = weld_dist2(p, &pts[j as usize]);
+            if best.is_none_or(|(bd, bj)| dist2 < bd || (dist2 == bd && j < bj)) {
+                best = Some((dist2, j));
+            }
+        }
+        target[i as usize] = best.map_or(i, |(_, j)| j);
+    }
+    Some(target)
+}
+
+/// Step 4 of [`weld`]: survivors (`target[i] == i`) numbered in input order; the map input
+/// index -> survivor index (`target[i] < i` for the others) and the survivors' coordinates.
+fn number_survivors(pts: &[[f64; 3]], target: &[u32]) -> (Vec<u32>, Vec<[f64; 3]>) {
+    let mut map: Vec<u32> = Vec::with_capacity(pts.len());
+    let mut survivors: Vec<[f64; 3]> = Vec::new();
+    for (i, &t) in target.iter().enumerate() {
+        if t as usize == i {
+            map.push(survivors.len() as u32);
+            survivors.push(pts[i]);
+        } else {
+            let s = map[t as usize];
+            map.push(s);
+        }
+    }
+    (map, survivors)
+}
+
+/// The sequential definition of [`weld`] (and its fallback for clustered input): vertices are
+/// visited in order; each merges into the nearest earlier survivor within `d` (ties: the lower
+/// survivor index), else survives. Returns the map input index -> survivor index and the
+/// survivors' coordinates.
 ///
 /// Survivors are hashed in a grid of cell size `2d`: the ball of radius `d` around a point
 /// meets at most 2 cells per axis (found with the same monotone cell function, so the search
 /// is conservative), i.e. at most 8 lookups per vertex.
-fn weld(pts: &[[f64; 3]], origin: [f64; 3], d: f64) -> (Vec<u32>, Vec<[f64; 3]>) {
+fn weld_sequential(pts: &[[f64; 3]], origin: [f64; 3], d: f64) -> (Vec<u32>, Vec<[f64; 3]>) {
     let mut map = Vec::with_capacity(pts.len());
     let mut survivors: Vec<[f64; 3]> = Vec::new();
     // Cell -> head of a linked list of survivors through `link`.
@@ -573,15 +864,18 @@ fn weld(pts: &[[f64; 3]], origin: [f64; 3], d: f64) -> (Vec<u32>, Vec<[f64; 3]>)
 
 /// All polygon edges as sorted `(min, max)` pairs, sorted.
 fn undirected_edges(polys: &[Polygon]) -> Vec<(u32, u32)> {
-    let mut edges: Vec<(u32, u32)> = Vec::with_capacity(polys.iter().map(|p| p.verts.len()).sum());
-    for p in polys {
-        let n = p.verts.len();
-        for i in 0..n {
-            let (a, b) = (p.verts[i].0, p.verts[(i + 1) % n].0);
-            edges.push((a.min(b), a.max(b)));
-        }
-    }
-    edges.sort_unstable();
+    let mut edges: Vec<(u32, u32)> = polys
+        .par_iter()
+        .flat_map_iter(|p| {
+            let n = p.verts.len();
+            (0..n).map(move |i| {
+                let (a, b) = (p.verts[i].0, p.verts[(i + 1) % n].0);
+                (a.min(b), a.max(b))
+            })
+        })
+        .collect();
+    // (The order of the pairs, as numbers.)
+    edges.par_sort_unstable_by_key(|&(a, b)| (u64::from(a) << 32) | u64::from(b));
     edges
 }
 
@@ -615,97 +909,143 @@ fn count_t_junctions(pts: &[[f64; 3]], edges: &[(u32, u32)]) -> usize {
     }
     let dims: [usize; 3] = std::array::from_fn(|k| ((ext[k] / h).floor() as usize + 1).max(1));
     let ncell = dims[0] * dims[1] * dims[2];
-    let cell1 = |x: f64, k: usize| -> usize {
-        let c = ((x - lo[k]) / h).floor();
+    let mut grid = TGrid {
+        h,
+        dims,
+        lo,
+        start: vec![0u32; ncell + 1],
+        items: vec![0u32; pts.len()],
+        // Slack for the rounding of interpolated cut points.
+        eps: 1e-9 * max_ext,
+    };
+
+    // CSR grid.
+    let vcell: Vec<usize> = pts
+        .par_iter()
+        .map(|p| grid.lin(std::array::from_fn(|k| grid.cell1(p[k], k))))
+        .collect();
+    for &c in &vcell {
+        grid.start[c + 1] += 1;
+    }
+    for i in 0..ncell {
+        grid.start[i + 1] += grid.start[i];
+    }
+    let mut fill = grid.start.clone();
+    for (v, &c) in vcell.iter().enumerate() {
+        grid.items[fill[c] as usize] = v as u32;
+        fill[c] += 1;
+    }
+    drop((fill, vcell));
+
+    // Edges in parallel (rayon), each with its own stamp (its index) in a stamp array per
+    // task, so a cell is searched once per edge whichever edges a task saw before; the
+    // count is a sum of counts per edge.
+    edges
+        .par_iter()
+        .enumerate()
+        .with_min_len(1024)
+        .map_init(
+            || vec![u32::MAX; ncell],
+            |cell_stamp, (ei, &(a, b))| t_junctions_on_edge(pts, (a, b), ei as u32, cell_stamp, &grid),
+        )
+        .sum()
+}
+
+/// The grid of [`count_t_junctions`]: cell size, cells per axis, bounding box's low corner,
+/// the vertices of each cell (CSR: `items[start[c]..start[c + 1]]`) and the slack of cut
+/// points.
+struct TGrid {
+    h: f64,
+    dims: [usize; 3],
+    lo: [f64; 3],
+    start: Vec<u32>,
+    items: Vec<u32>,
+    eps: f64,
+}
+
+impl TGrid {
+    fn cell1(&self, x: f64, k: usize) -> usize {
+        let c = ((x - self.lo[k]) / self.h).floor();
         if c.is_nan() || c < 0.0 {
             0
         } else {
-            (c as usize).min(dims[k] - 1)
+            (c as usize).min(self.dims[k] - 1)
+        }
+    }
+
+    fn lin(&self, c: [usize; 3]) -> usize {
+        (c[0] * self.dims[1] + c[1]) * self.dims[2] + c[2]
+    }
+}
+
+/// The vertices of `grid` lying exactly on edge `(a, b)`, strictly between its endpoints;
+/// `cell_stamp[c] == stamp` marks the cells searched for this edge already.
+fn t_junctions_on_edge(
+    pts: &[[f64; 3]],
+    (a, b): (u32, u32),
+    stamp: u32,
+    cell_stamp: &mut [u32],
+    grid: &TGrid,
+) -> usize {
+    let (h, eps) = (grid.h, grid.eps);
+    let cell1 = |x: f64, k: usize| grid.cell1(x, k);
+    let lin = |c: [usize; 3]| grid.lin(c);
+    let (start, items) = (&grid.start, &grid.items);
+    let mut count = 0usize;
+    let (pa, pb) = (&pts[a as usize], &pts[b as usize]);
+    let len = (0..3).map(|k| (pb[k] - pa[k]) * (pb[k] - pa[k])).sum::<f64>().sqrt();
+    let pieces = ((len / h).ceil() as usize).max(1);
+    // Axis of the largest extent, for the strictly-between test.
+    let ax = (0..3)
+        .max_by(|&i, &j| {
+            (pb[i] - pa[i])
+                .abs()
+                .partial_cmp(&(pb[j] - pa[j]).abs())
+                .unwrap_or(std::cmp::Ordering::Equal)
+        })
+        .unwrap_or(0);
+    let (lo_ax, hi_ax) = if pa[ax] < pb[ax] {
+        (pa[ax], pb[ax])
+    } else {
+        (pb[ax], pa[ax])
+    };
+    let at = |i: usize| -> [f64; 3] {
+        if i == 0 {
+            *pa
+        } else if i == pieces {
+            *pb
+        } else {
+            let t = i as f64 / pieces as f64;
+            std::array::from_fn(|k| pa[k] + (pb[k] - pa[k]) * t)
         }
     };
-    let lin = |c: [usize; 3]| (c[0] * dims[1] + c[1]) * dims[2] + c[2];
-
-    // CSR grid.
-    let mut start = vec![0u32; ncell + 1];
-    let vcell: Vec<usize> = pts
-        .iter()
-        .map(|p| lin(std::array::from_fn(|k| cell1(p[k], k))))
-        .collect();
-    for &c in &vcell {
-        start[c + 1] += 1;
-    }
-    for i in 0..ncell {
-        start[i + 1] += start[i];
-    }
-    let mut fill = start.clone();
-    let mut items = vec![0u32; pts.len()];
-    for (v, &c) in vcell.iter().enumerate() {
-        items[fill[c] as usize] = v as u32;
-        fill[c] += 1;
-    }
-    drop(fill);
-    // Slack for the rounding of interpolated cut points.
-    let eps = 1e-9 * max_ext;
-
-    let mut cell_stamp = vec![u32::MAX; ncell];
-    let mut count = 0usize;
-    for (ei, &(a, b)) in edges.iter().enumerate() {
-        let stamp = ei as u32;
-        let (pa, pb) = (&pts[a as usize], &pts[b as usize]);
-        let len = (0..3).map(|k| (pb[k] - pa[k]) * (pb[k] - pa[k])).sum::<f64>().sqrt();
-        let pieces = ((len / h).ceil() as usize).max(1);
-        // Axis of the largest extent, for the strictly-between test.
-        let ax = (0..3)
-            .max_by(|&i, &j| {
-                (pb[i] - pa[i])
-                    .abs()
-                    .partial_cmp(&(pb[j] - pa[j]).abs())
-                    .unwrap_or(std::cmp::Ordering::Equal)
-            })
-            .unwrap_or(0);
-        let (lo_ax, hi_ax) = if pa[ax] < pb[ax] {
-            (pa[ax], pb[ax])
-        } else {
-            (pb[ax], pa[ax])
-        };
-        let at = |i: usize| -> [f64; 3] {
-            if i == 0 {
-                *pa
-            } else if i == pieces {
-                *pb
-            } else {
-                let t = i as f64 / pieces as f64;
-                std::array::from_fn(|k| pa[k] + (pb[k] - pa[k]) * t)
-            }
-        };
-        let mut s0 = at(0);
-        for pi in 0..pieces {
-            let s1 = at(pi + 1);
-            let slack = if pieces == 1 { 0.0 } else { eps };
-            let c0: [usize; 3] = std::array::from_fn(|k| cell1(s0[k].min(s1[k]) - slack, k));
-            let c1: [usize; 3] = std::array::from_fn(|k| cell1(s0[k].max(s1[k]) + slack, k));
-            for x in c0[0]..=c1[0] {
-                for y in c0[1]..=c1[1] {
-                    for z in c0[2]..=c1[2] {
-                        let ci = lin([x, y, z]);
-                        if cell_stamp[ci] == stamp {
+    let mut s0 = at(0);
+    for pi in 0..pieces {
+        let s1 = at(pi + 1);
+        let slack = if pieces == 1 { 0.0 } else { eps };
+        let c0: [usize; 3] = std::array::from_fn(|k| cell1(s0[k].min(s1[k]) - slack, k));
+        let c1: [usize; 3] = std::array::from_fn(|k| cell1(s0[k].max(s1[k]) + slack, k));
+        for x in c0[0]..=c1[0] {
+            for y in c0[1]..=c1[1] {
+                for z in c0[2]..=c1[2] {
+                    let ci = lin([x, y, z]);
+                    if cell_stamp[ci] == stamp {
+                        continue;
+                    }
+                    cell_stamp[ci] = stamp;
+                    for &v in &items[start[ci] as usize..start[ci + 1] as usize] {
+                        if v == a || v == b {
                             continue;
                         }
-                        cell_stamp[ci] = stamp;
-                        for &v in &items[start[ci] as usize..start[ci + 1] as usize] {
-                            if v == a || v == b {
-                                continue;
-                            }
-                            let q = &pts[v as usize];
-                            if q[ax] > lo_ax && q[ax] < hi_ax && collinear(pa, pb, q) {
-                                count += 1;
-                            }
+                        let q = &pts[v as usize];
+                        if q[ax] > lo_ax && q[ax] < hi_ax && collinear(pa, pb, q) {
+                            count += 1;
                         }
                     }
                 }
             }
-            s0 = s1;
         }
+        s0 = s1;
     }
     count
 }
@@ -984,6 +1324,107 @@ mod tests {
         assert_ne!(map[0], map[2]);
     }
 
+    /// Clustered points for the weld tests: clusters around `centres` of up to 8 points each,
+    /// exact copies, offsets on a lattice of `d / 4` (distances of exactly `d` and exact
+    /// ties between survivors) and random offsets up to `1.5 d`, shuffled.
+    fn weld_cloud(rng: &mut crate::base::rng::SplitMix64, centres: &[[f64; 3]], d: f64) -> Vec<[f64; 3]> {
+        let mut pts: Vec<[f64; 3]> = Vec::new();
+        for c in centres {
+            let first = pts.len();
+            for _ in 0..1 + rng.below(8) {
+                let r = rng.unit();
+                let p = if r < 0.25 && pts.len() > first {
+                    pts[first + rng.below(pts.len() - first)]
+                } else if r < 0.65 {
+                    std::array::from_fn(|k| c[k] + d * (rng.below(13) as f64 - 6.0) / 4.0)
+                } else {
+                    std::array::from_fn(|k| c[k] + 1.5 * d * rng.signed_unit())
+                };
+                pts.push(p);
+            }
+        }
+        for i in (1..pts.len()).rev() {
+            pts.swap(i, rng.below(i + 1));
+        }
+        pts
+    }
+
+    /// `weld` against its sequential definition, bit for bit.
+    fn assert_weld_matches(pts: &[[f64; 3]], origin: [f64; 3], d: f64, what: &str) {
+        let (map0, surv0) = weld_sequential(pts, origin, d);
+        let bits = |s: &[[f64; 3]]| s.iter().map(|p| p.map(f64::to_bits)).collect::<Vec<_>>();
+        let check = |(map, surv): (Vec<u32>, Vec<[f64; 3]>), how: &str| {
+            assert_eq!(map, map0, "{what}: {how}");
+            assert_eq!(bits(&surv), bits(&surv0), "{what}: {how}");
+        };
+        check(weld(pts, origin, d), "weld");
+        // Every path of the parallel weld on its own: all runs closed where possible, short
+        // runs only, every vertex pending; and the fallback.
+        for max_run in [WELD_MAX_RUN, 2, 0] {
+            let target = weld_targets(pts, origin, d, max_run, usize::MAX).unwrap();
+            check(number_survivors(pts, &target), &format!("max_run {max_run}"));
+        }
+        assert!(weld_targets(pts, origin, d, 0, 0).is_none() || pts.is_empty(), "{what}");
+    }
+
+    #[test]
+    fn parallel_weld_equals_the_sequential_definition() {
+        let mut rng = crate::base::rng::SplitMix64(17);
+        let mut merged = 0;
+        for trial in 0..60 {
+            // d = 1 and 0.75 keep the lattice offsets exact (exact ties); 1e-3 does not.
+            let d = [1.0, 0.75, 1e-3][trial % 3];
+            let origin: [f64; 3] = std::array::from_fn(|_| d * (rng.below(9) as f64 - 4.0) / 2.0);
+            // Centres on a lattice of d/2, some dense enough that clusters touch (chains of
+            // welds), some on the coarse grid's boundary (fine cell 128 + 256 m, so the
+            // closed-run and pending paths meet), some far out (clamped coarse cells).
+            let spread = [4.0, 20.0, 200.0][trial / 3 % 3];
+            let centres: Vec<[f64; 3]> = (0..40 + rng.below(200))
+                .map(|_| {
+                    let u = rng.unit();
+                    std::array::from_fn(|k| {
+                        let base = if u < 0.3 {
+                            2.0 * d * (128.0 + 256.0 * (rng.below(3) as f64 - 1.0))
+                        } else if u < 0.35 {
+                            d * 1e9 * rng.signed_unit()
+                        } else {
+                            0.0
+                        };
+                        origin[k] + base + d * (rng.unit() * spread * 2.0).round() / 2.0
+                    })
+                })
+                .collect();
+            let pts = weld_cloud(&mut rng, &centres, d);
+            merged += pts.len() - weld_sequential(&pts, origin, d).1.len();
+            for threads in [1, 3] {
+                let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+                pool.install(|| assert_weld_matches(&pts, origin, d, &format!("trial {trial}, {threads} threads")));
+            }
+        }
+        assert!(merged > 3000, "{merged}");
+    }
+
+    #[test]
+    fn parallel_weld_with_long_runs_and_heavy_clusters() {
+        let mut rng = crate::base::rng::SplitMix64(29);
+        let d = 1.0;
+        // A cluster of ~270 points in one coarse cell with ~440 sparse ones: one run, too
+        // long to be closed; over the budget in `weld` (sequential), listed when forced.
+        let mut centres = vec![[10.0, 10.0, 10.0]; 60];
+        centres.extend((0..100).map(|_| std::array::from_fn(|_| (rng.unit() * 60.0).round())));
+        let pts = weld_cloud(&mut rng, &centres, d);
+        assert_weld_matches(&pts, [0.0; 3], d, "long run");
+        // 5000 copies of one point: over the budget, the sequential weld runs.
+        let mut pts = vec![[3.0, 4.0, 5.0]; 5000];
+        pts.push([3.5, 4.0, 5.0]);
+        pts.push([0.0, 0.0, 0.0]);
+        assert!(weld_targets(&pts, [0.0; 3], d, WELD_MAX_RUN, 32 * pts.len() + 65_536).is_none());
+        assert_weld_matches(&pts, [0.0; 3], d, "copies");
+        // Nothing, and a single point.
+        assert_weld_matches(&[], [0.0; 3], d, "empty");
+        assert_weld_matches(&[[1.0, 2.0, 3.0]], [0.0; 3], d, "single");
+    }
+
     #[test]
     fn closed_cube_is_clean() {
         let (v, f) = cube();
@@ -1092,5 +1533,122 @@ mod tests {
         }
         let m = clean("l", "l", soup(v, f)).unwrap();
         assert!(m.report.t_junctions >= 63, "{}", m.report.t_junctions);
+    }
+
+    /// A messy soup: a grid of unit cubes, each face a quad, with welds (copies moved by
+    /// less than the weld distance), zero-area faces, duplicates, reversed (two-sided)
+    /// faces, non-planar and non-convex faces to triangulate, materials, T-junctions.
+    fn messy_soup(seed: u64) -> Soup {
+        let mut rng = crate::base::rng::SplitMix64(seed);
+        let (cube_v, cube_f) = cube();
+        let mut vertices: Vec<[f64; 3]> = Vec::new();
+        let mut polys: Vec<Vec<u32>> = Vec::new();
+        for c in 0..60 {
+            let o = [(c % 5) as f64, (c / 5 % 4) as f64, (c / 20) as f64];
+            for f in &cube_f {
+                let base = vertices.len() as u32;
+                for &v in f {
+                    let p = cube_v[v as usize];
+                    let jitter = if rng.below(4) == 0 {
+                        1e-9 * rng.signed_unit()
+                    } else {
+                        0.0
+                    };
+                    vertices.push(std::array::from_fn(|k| o[k] + p[k] + jitter));
+                }
+                let mut q: Vec<u32> = (base..base + 4).collect();
+                match rng.below(12) {
+                    0 => q.rotate_left(1 + rng.below(3)),
+                    1 => {
+                        polys.push(q.clone()); // duplicate below
+                    }
+                    2 => polys.push(q.iter().rev().copied().collect()), // two-sided
+                    3 => q = vec![q[0], q[1], q[1]],                    // zero area
+                    4 => {
+                        // A non-convex pentagon: a dent at the face's centre.
+                        let (a, b) = (vertices[q[0] as usize], vertices[q[2] as usize]);
+                        vertices.push(std::array::from_fn(|k| 0.5 * (a[k] + b[k])));
+                        q.insert(2, vertices.len() as u32 - 1);
+                    }
+                    5 => {
+                        // Non-planar: one corner lifted along the face's normal a little.
+                        let i = q[3] as usize;
+                        vertices[i] = std::array::from_fn(|k| vertices[i][k] + 0.01 * rng.signed_unit());
+                    }
+                    6 => {
+                        // A T-junction: the midpoint of the face's first edge, as a vertex.
+                        let (a, b) = (vertices[q[0] as usize], vertices[q[1] as usize]);
+                        vertices.push(std::array::from_fn(|k| 0.5 * (a[k] + b[k])));
+                        q.insert(1, vertices.len() as u32 - 1);
+                    }
+                    _ => {}
+                }
+                polys.push(q);
+            }
+        }
+        let mut s = soup(vertices, polys);
+        for (i, p) in s.polygons.iter_mut().enumerate() {
+            p.material = (i % 7 == 0).then(|| format!("m{}", i % 3));
+        }
+        s
+    }
+
+    #[test]
+    fn cleaning_is_the_same_on_any_number_of_threads() {
+        for seed in 0..6 {
+            let results: Vec<String> = [1, 2, 3]
+                .into_iter()
+                .map(|threads| {
+                    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+                    let m = pool.install(|| clean("m", "m", messy_soup(seed))).unwrap();
+                    format!("{:?} {:?} {:?} {:?}", m.vertices, m.polygons, m.report, m.origin)
+                })
+                .collect();
+            assert!(results.iter().all(|r| *r == results[0]), "seed {seed}");
+            let m = clean("m", "m", messy_soup(seed)).unwrap();
+            let r = &m.report;
+            assert!(
+                r.welded_vertices > 0
+                    && r.zero_area_polygons_dropped > 0
+                    && r.duplicate_polygons_dropped > 0
+                    && r.two_sided_pairs > 0
+                    && r.nonplanar_or_nonconvex_triangulated > 0
+                    && r.t_junctions > 0,
+                "seed {seed}: {r:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn the_first_refused_polygon_is_named() {
+        // Non-planar outlines of 65 vertices crossing themselves (a star of 65 points, every
+        // second one): refused; the error names the first in input order, on any number of
+        // threads.
+        let mut s = messy_soup(1);
+        let n = crate::model::triangulate::MIN_AREA_MAX_VERTICES + 1;
+        let faces = s.polygons.len();
+        for (copy, z) in [(0, 10.0), (1, 20.0), (2, 30.0)] {
+            let base = s.vertices.len() as u32;
+            s.vertices.extend((0..n).map(|k| {
+                let t = std::f64::consts::TAU * (2 * k) as f64 / n as f64;
+                [t.cos(), t.sin(), z + 0.01 * (k % 3) as f64]
+            }));
+            s.polygons.push(RawPolygon {
+                verts: (base..base + n as u32).collect(),
+                source: SourceRef {
+                    line: Some(1000 + copy),
+                    element: faces + copy,
+                },
+                material: None,
+            });
+        }
+        for threads in [1, 3] {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            let e = pool.install(|| clean("m", "m", s.clone())).unwrap_err();
+            assert!(
+                matches!(&e, ModelError::Malformed { line: 1000, element, .. } if *element == format!("face {faces} (0-based)")),
+                "{e}"
+            );
+        }
     }
 }

@@ -29,7 +29,9 @@
 //! later in the file), and `usemtl name` (the material of the following faces; the `.mtl` file is
 //! never opened, so a missing one is harmless). Everything after `#` is a comment. All other
 //! lines (`vt`, `vn`, `o`, `g`, `s`, `mtllib`, `l`, `p`, ...) are ignored, so all objects and
-//! groups end up in one polygon soup. Backslash line continuation is not supported.
+//! groups end up in one polygon soup. Backslash line continuation is not supported. The text
+//! is parsed in pieces of whole lines on every core, with the result and the first error (in
+//! file order) of one sequential pass.
 //!
 //! ## Simple text mesh (`.mesh`)
 //!
@@ -49,7 +51,9 @@
 //! # Cleaning
 //!
 //! Both readers and [`from_soup`] apply the same cleaning, in this order, and count every
-//! change in the [`CleaningReport`] (nothing is changed silently):
+//! change in the [`CleaningReport`] (nothing is changed silently). Steps run on every core
+//! (rayon) where that keeps their order: the result, the counts and the first error are
+//! those of the sequence, on any number of threads.
 //!
 //! 1. **Tolerances** are [`Tolerances::for_scale`] of the bounding-box diagonal of the vertices
 //!    referenced by some polygon (stray unreferenced vertices do not inflate it). The
@@ -85,7 +89,10 @@
 //! 2. **Welding.** Vertices are visited in file order; a vertex closer than
 //!    [`Tolerances::weld_abs`] to an earlier surviving vertex is merged into the nearest such
 //!    vertex (grid hash with cell size = weld distance, expected O(n)). Chains are not
-//!    transitive: each vertex is compared with the survivors only.
+//!    transitive: each vertex is compared with the survivors only. (Computed on every core
+//!    with exactly this result: the vertices of each cell of a coarse grid are welded on
+//!    their own, those near a coarse cell's side in file order afterwards; tested against
+//!    the sequential weld.)
 //! 3. **Degenerate polygons.** After welding, consecutive repeated vertices are removed. A
 //!    polygon with fewer than 3 distinct vertices, with all vertices exactly collinear
 //!    ([`crate::predicates::collinear`]), or with (Newell) area below
