@@ -656,6 +656,27 @@ fn weld(pts: &[[f64; 3]], origin: [f64; 3], d: f64) -> (Vec<u32>, Vec<[f64; 3]>)
     }
 }
 
+/// The fuzzer's differential check of [`weld`]: every path of the parallel weld (runs of at
+/// most `max_run` closed, the rest pending) against [`weld_sequential`], bit for bit, at
+/// weld distance `d` from `origin`. `Err` names the first disagreement.
+pub(crate) fn weld_paths_agree(pts: &[[f64; 3]], origin: [f64; 3], d: f64, max_run: usize) -> Result<(), String> {
+    let (map0, surv0) = weld_sequential(pts, origin, d);
+    let bits = |s: &[[f64; 3]]| s.iter().map(|p| p.map(f64::to_bits)).collect::<Vec<_>>();
+    let mut paths = vec![("weld".to_string(), weld(pts, origin, d))];
+    if let Some(target) = weld_targets(pts, origin, d, max_run, usize::MAX) {
+        paths.push((format!("max_run {max_run}"), number_survivors(pts, &target)));
+    }
+    for (how, (map, surv)) in paths {
+        if map != map0 || bits(&surv) != bits(&surv0) {
+            return Err(format!(
+                "the parallel weld ({how}, d = {d:e}) differs from the sequential weld on {} vertices",
+                pts.len()
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Steps 1 to 3 of [`weld`]: for each vertex, the input index of the vertex it merges into,
 /// or its own index when it survives. Runs longer than `max_run` are pending; `None` when
 /// listing the pending vertices' candidates would scan more than `budget` vertices.

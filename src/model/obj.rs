@@ -40,6 +40,25 @@ pub(crate) fn parse_obj(file: &str, text: &str) -> Result<Soup, ModelError> {
     parse_obj_chunked(file, text, CHUNK_BYTES)
 }
 
+/// The fuzzer's differential check of the chunked parser: `text` parsed in pieces of about
+/// `chunk_bytes` gives what the whole text parsed as one piece gives (the soup, bit for bit
+/// through `Debug`, or the same error). `Err` describes the first disagreement.
+pub(crate) fn chunking_agrees(text: &str, chunk_bytes: usize) -> Result<(), String> {
+    let show = |r: Result<Soup, ModelError>| match r {
+        Ok(s) => format!("{s:?}"),
+        Err(e) => format!("error: {e}"),
+    };
+    let whole = show(parse_obj_chunked("fuzz.obj", text, usize::MAX));
+    let pieces = show(parse_obj_chunked("fuzz.obj", text, chunk_bytes));
+    if whole == pieces {
+        Ok(())
+    } else {
+        Err(format!(
+            "the OBJ parse in pieces of {chunk_bytes} bytes differs from the whole parse"
+        ))
+    }
+}
+
 /// Positive indices beyond the vertices defined so far, checked at the end: (polygon, line,
 /// raw index).
 type Forward = Vec<(usize, usize, i64)>;

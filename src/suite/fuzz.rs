@@ -5,7 +5,10 @@
 //! Targets ([`Target`]):
 //! - `obj`, `mesh`: the readers on mutated bytes (lossy UTF-8, as [`crate::model::load_model`]
 //!   reads files). A reader must never panic, and what it accepts must satisfy the model's
-//!   invariants (polygons of ≥ 3 distinct existing vertices, finite coordinates).
+//!   invariants (polygons of ≥ 3 distinct existing vertices, finite coordinates). The OBJ
+//!   target also checks the parallel reader against its sequential paths on every case
+//!   (`model::obj_reader_paths_agree`: the text parsed in pieces of 1–61 bytes, and the
+//!   weld in short runs, against the whole parse and the sequential weld).
 //! - `pipeline`: small OBJ soups (≤ [`Limits::max_vertices`] vertices, ≤
 //!   [`Limits::max_polygons`] polygons; larger inputs are skipped) from the corpus or
 //!   generated (random boxes, random triangles), perturbed geometrically (a few ulps, noise
@@ -234,6 +237,16 @@ pub fn check(target: Target, bytes: &[u8], limits: &Limits) -> Outcome {
 
 fn check_inner(target: Target, bytes: &[u8], limits: &Limits) -> Outcome {
     let text = String::from_utf8_lossy(bytes);
+    if target == Target::Obj {
+        // The parallel reader's paths (pieces, weld runs) against its sequential ones; the
+        // piece size and run length are a function of the bytes, so a find reproduces.
+        let seed = bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| {
+            (h ^ b as u64).wrapping_mul(0x100_0000_01b3)
+        });
+        if let Err(e) = model::obj_reader_paths_agree(&text, seed) {
+            return fail("reader paths", &e);
+        }
+    }
     let loaded = match target {
         Target::Mesh => model::parse_mesh_str("fuzz.mesh", &text),
         _ => model::parse_obj_str("fuzz.obj", &text),
