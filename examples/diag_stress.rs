@@ -135,6 +135,21 @@ fn main() {
                     st.volumes[1]
                 );
             }
+            // DIAG_KEPT=1: every pair the gate kept apart, whatever rooms its sides hold.
+            if st.kept && std::env::var("DIAG_KEPT").is_ok() {
+                println!(
+                    "step {i}: kept {ra:?} | {rb:?} w {:.4} peaks [{:.4}, {:.4}] saddle {:.4} opening {:.4} projected [{:.3}, {:.3}] volumes [{:.3}, {:.3}]",
+                    st.weight,
+                    st.peaks[0],
+                    st.peaks[1],
+                    st.saddle,
+                    st.opening,
+                    st.projected[0],
+                    st.projected[1],
+                    st.volumes[0],
+                    st.volumes[1]
+                );
+            }
             // DIAG_ROOM=r: merges of room r's component with a component holding no samples.
             if let Some(r) = std::env::var("DIAG_ROOM").ok().and_then(|r| r.parse::<usize>().ok()) {
                 let has = |x: &std::collections::BTreeSet<usize>| x.contains(&r);
