@@ -138,11 +138,12 @@ fn main() {
             // DIAG_KEPT=1: every pair the gate kept apart, whatever rooms its sides hold.
             if st.kept && std::env::var("DIAG_KEPT").is_ok() {
                 println!(
-                    "step {i}: kept {ra:?} | {rb:?} w {:.4} peaks [{:.4}, {:.4}] saddle {:.4} opening {:.4} projected [{:.3}, {:.3}] volumes [{:.3}, {:.3}]",
+                    "step {i}: kept {ra:?} | {rb:?} w {:.4} peaks [{:.4}, {:.4}] saddle {:.4} portal {:.4} opening {:.4} projected [{:.3}, {:.3}] volumes [{:.3}, {:.3}]",
                     st.weight,
                     st.peaks[0],
                     st.peaks[1],
                     st.saddle,
+                    st.portal_area,
                     st.opening,
                     st.projected[0],
                     st.projected[1],
