@@ -56,7 +56,12 @@
 //! `ratio` times the portal area, and (with `slices`) so is the smaller of their largest
 //! cuts parallel to the portal plane: a long component cut obliquely (a corridor of a
 //! few large faces) projects far wider than it is, its parallel cuts do not. A kept pair
-//! is weighed again when either side grows.
+//! is weighed again when either side grows. With the gate, a pair that would stop a
+//! threshold run (weight ≥ the threshold) has its saddle refined the same way first, and
+//! stops the run only if it still weighs that much: the pass is a lower bound from a few
+//! straight paths, loose on large cells by an amount that depends on the tetrahedra
+//! (rotated, a generated building's pass between two halves of a room was sampled too low
+//! to ever pop), so the stop judges the best bound the gate would judge.
 //!
 //! **Clean-up** (`dominance`). Leaks (noise, marching-cubes caverns) open the solid and
 //! the exterior to the merge: slabs and pockets whose largest empty ball is tiny next to
@@ -1946,8 +1951,18 @@ fn merge<I: Ids>(
             continue;
         }
         let w = e.weight;
+        // The pair that would stop a threshold run (or mark a run to the end's cut): its pass
+        // is refined first, as a gated pair's is, so that the stop judges the best lower
+        // bound of the pass rather than one that depends on how the tetrahedra sample it.
+        let stop_r = match (settings.stop, cut.as_ref()) {
+            (StopRule::Threshold(r), _) => Some(r),
+            (_, Some((r, c))) if c.is_none() => Some(*r),
+            _ => None,
+        };
+        let pre_refine = gate.is_some() && !l.refined() && stop_r.is_some_and(|r| w >= r);
         if let StopRule::Threshold(r) = settings.stop
             && w >= r
+            && !pre_refine
         {
             if let Some(ev) = events.as_deref_mut() {
                 ev.push(Event {
@@ -1964,6 +1979,7 @@ fn merge<I: Ids>(
         if let Some((r, c)) = cut.as_mut()
             && c.is_none()
             && w >= *r
+            && !pre_refine
         {
             **c = Some(cut_here(&comps, &store, cells, steps.len(), w, &stats, constrained));
             if constrained {
@@ -1974,7 +1990,7 @@ fn merge<I: Ids>(
         let gated = gate.filter(|g| {
             w >= g.from && g.holds_ball(comps[a].peak, comps[a].volume) && g.holds_ball(comps[b].peak, comps[b].volume)
         });
-        if gated.is_some() && !l.refined() {
+        if (gated.is_some() || pre_refine) && !l.refined() {
             // Before the gate decides, the best lower bound of the pass we can afford:
             // refined passages of every portal between the two components.
             let (small, other) = if comps[a].members.len() <= comps[b].members.len() {
