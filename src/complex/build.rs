@@ -1548,7 +1548,10 @@ fn support_planes(model: &Model, pending: &[PolygonId], tol: &crate::Tolerances)
             (dc / dstep).round() as i64,
         ]
     };
-    for k in order {
+    // The polygon that founded each support (its own plane: projection moves none of
+    // its vertices beyond rounding).
+    let mut founder: Vec<usize> = Vec::new();
+    for &k in &order {
         let pid = pending[k];
         let v = &cycles[k];
         let (i, j, l) = plane_triple(v);
@@ -1588,9 +1591,88 @@ fn support_planes(model: &Model, pending: &[PolygonId], tol: &crate::Tolerances)
                     plane,
                 });
                 buckets.entry(base).or_default().push(supports.len() - 1);
+                founder.push(k);
                 (supports.len() - 1, false)
             }
         };
+    }
+    // Seams. Projecting a polygon onto a shared support moves its vertices by up to
+    // `coplanar`; a polygon through the same vertex on another support keeps it where its
+    // own support puts it, so the two occluders no longer meet along their shared edge:
+    // a crack of height `gap` (the distance between the vertex's two projections). Across
+    // two supports at dihedral angle θ the crack's wedge reaches gap / sin θ into the
+    // cells between the two planes; beyond the sliver width its openings are portals, and
+    // a cell between the two planes (behind one, in front of the other) then holds both
+    // sides of the surface, joined through the crack inside it (caverns-7 under noise
+    // 1e-4: supports 0.22° apart, gap 5.9e-6, wedge 1.5e-3 wide). Unless the two planes
+    // stay within the sliver width of each other over both polygons (a cell holding the
+    // crack there is a membrane, as between the two triangles of a noisy quad), such a
+    // polygon keeps its own plane instead (it then moves no vertex); repeated until no
+    // seam opens that way.
+    let sliver = tol.sliver_width();
+    let mut by_vertex: HashMap<u32, Vec<usize>, FxBuild> = HashMap::default();
+    for (k, &p) in pending.iter().enumerate() {
+        for v in &model.polygons[p.idx()].verts {
+            by_vertex.entry(v.0).or_default().push(k);
+        }
+    }
+    // Distance between the projections of `y` onto two planes.
+    let apart = |a: &Plane, b: &Plane, y: &[f64; 3]| {
+        let (da, db) = (a.eval(y), b.eval(y));
+        let g = [0, 1, 2].map(|i| da * a.n[i] - db * b.n[i]);
+        (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt()
+    };
+    loop {
+        // In the geometric order, so that the new supports' ids do not depend on face order.
+        let mut eject: Vec<usize> = Vec::new();
+        for &k in &order {
+            let s = of[k].0;
+            if founder[s] == k {
+                continue;
+            }
+            let sp = &supports[s].plane;
+            let opens = model.polygons[pending[k].idx()].verts.iter().any(|v| {
+                let x = model.vertices[v.idx()];
+                if sp.eval(&x).abs() <= tol.plane_abs() {
+                    return false;
+                }
+                by_vertex[&v.0].iter().any(|&o| {
+                    let so = of[o].0;
+                    if so == s {
+                        return false;
+                    }
+                    let op = &supports[so].plane;
+                    let c = sp.n[0] * op.n[0] + sp.n[1] * op.n[1] + sp.n[2] * op.n[2];
+                    let sin = (1.0 - c * c).max(0.0).sqrt();
+                    apart(sp, op, &x) > sin * sliver
+                        && [k, o]
+                            .iter()
+                            .flat_map(|&q| model.polygons[pending[q].idx()].verts.iter())
+                            .any(|w| apart(sp, op, &model.vertices[w.idx()]) > sliver)
+                })
+            });
+            if opens {
+                eject.push(k);
+            }
+        }
+        if eject.is_empty() {
+            break;
+        }
+        for k in eject {
+            let pid = pending[k];
+            let v = &cycles[k];
+            let (i, j, l) = plane_triple(v);
+            let plane = Plane::from_points(&v[i], &v[j], &v[l]).normalized();
+            let poly = &model.polygons[pid.idx()];
+            let (start, n) = (canonical_start(model, pid), poly.verts.len());
+            let id = |x: usize| poly.verts[(start + x) % n];
+            supports.push(Support {
+                ids: [id(i), id(j), id(l)],
+                plane,
+            });
+            founder.push(k);
+            of[k] = (supports.len() - 1, false);
+        }
     }
     (supports, of)
 }
