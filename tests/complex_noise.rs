@@ -78,3 +78,13 @@ fn door_frames_crossing_themselves_under_noise_1e2_are_triangulated_in_3d() {
     cx.check_valid().expect("valid cells");
     cx.validate(&m).expect("valid complex");
 }
+
+/// Greedy building seed 4 under noise 1e-5 was invalid at every tolerance level (session
+/// 25, `results/stress/session25_greedy4/`): the fallback cuts with no On band (and the gap
+/// bands below 1e-15) put crossings 1 ulp from existing vertices, whose needle and folded
+/// faces a wall's sealing cut then could not split in any band. With the classifier's
+/// rounding floor (session 26) such vertices stay On, and level 0 validates.
+#[test]
+fn greedy_4_noise_1e5_validates_at_the_models_own_tolerances() {
+    validate_variant(Family::Greedy, 4, Variant::Noise(1e-5)).unwrap();
+}

@@ -137,10 +137,11 @@ impl Plane {
 }
 
 /// The relative floor below which a classifier's distance is 0 (8 ε = 2⁻⁵⁰, times
-/// Σ|nᵢpᵢ| + |d|): a point constructed on a plane (a crossing, a snapped vertex) lies off
-/// it by the rounding of its coordinates, up to about ε Σ|nᵢpᵢ|, and the plane's own
-/// coefficients are rounded by ε|d|; below that bound the sign of the distance says
-/// nothing about the geometry. Every On band, even 0 (the fallback cuts of
+/// Σ|nᵢpᵢ| + |d|): a point whose exact position is on the plane lies off it, once rounded
+/// to doubles, by up to about ε Σ|nᵢpᵢ|, and the plane's own coefficients are rounded by
+/// ε|d|; below that bound the sign of the distance says nothing about the geometry. (A
+/// crossing of a long edge can lie farther off, its interpolation error growing with the
+/// edge; the plane and weld bands above the floor cover that.) Every On band, even 0 (the fallback cuts of
 /// [`crate::geom::ConvexPolyhedron::cut`]), keeps such a point On, so a cut never puts a
 /// crossing within rounding of an existing vertex (the 1-ulp edges, needle and folded
 /// faces that made greedy-4 under noise 1e-5 invalid at every level, session 25). The
@@ -220,6 +221,31 @@ mod tests {
     use super::super::testutil::{Rng, frames};
     use super::*;
     use crate::predicates::orient3d;
+
+    /// A point an ulp (per coordinate) from a point exactly on the plane is On for every
+    /// band, even 0: its distance is below the rounding floor (the 1-ulp pairs the
+    /// fallback cuts used to make). A point 1e-9 off is still on its side with band 0.
+    #[test]
+    fn points_an_ulp_off_the_plane_are_on_for_every_band() {
+        let mut rng = Rng::new(11);
+        let up = |x: f64| f64::from_bits(if x > 0.0 { x.to_bits() + 1 } else { x.to_bits() - 1 });
+        for _ in 0..2000 {
+            // Small integer normal and dyadic point: d = n·x exactly.
+            let n = [0, 1, 2].map(|_| (rng.point(8.0)[0]).round());
+            let x = rng.point(20.0).map(|c| (c * 1024.0).round() / 1024.0);
+            if n == [0.0; 3] || x.contains(&0.0) {
+                continue;
+            }
+            let pl = Plane::new(n, n[0] * x[0] + n[1] * x[1] + n[2] * x[2]);
+            assert_eq!(pl.eval(&x), 0.0);
+            let cl = Classifier::with_eps(&pl, 0.0);
+            let y = [up(x[0]), up(x[1]), up(x[2])];
+            assert_eq!(cl.side_of(cl.dist(&y)), Side::On, "{y:?} on {pl:?}: {:e}", pl.eval(&y));
+            let u = pl.unit_normal();
+            let z = [x[0] + 1e-9 * u[0], x[1] + 1e-9 * u[1], x[2] + 1e-9 * u[2]];
+            assert_eq!(cl.side_of(cl.dist(&z)), Side::Front);
+        }
+    }
 
     #[test]
     fn orientation_matches_orient3d() {
