@@ -326,4 +326,3 @@ fn a_closed_noisy_cavern_does_not_leak_through_a_projection_seam() {
         }
     }
 }
-
