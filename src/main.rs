@@ -1692,6 +1692,19 @@ fn gap_hint(cx: &portalfind::complex::CellComplex, m: &portalfind::model::Model)
         return None;
     }
     let open = m.report.open_edges;
+    if open == 0 && m.report.t_junctions == 0 && m.report.non_manifold_edges == 0 {
+        // A closed input: the crack is the complex's own (a polygon placed on a support
+        // plane it shares with nearly coplanar neighbours leaves a sliver between it and a
+        // neighbour on another support), which the crack-sealing pass of `--seal-holes
+        // auto` closes by splitting the cells at it.
+        return Some(
+            "note: the input is closed (no open edge, no T-junction, no non-manifold edge), so \
+             the leak passes through a crack of the cell complex itself, between nearly \
+             coplanar polygons placed on shared support planes; `--seal-holes auto` (the \
+             default) closes such cracks; if it leaks with auto, please report the model"
+                .into(),
+        );
+    }
     if open == 0 {
         return Some(
             "note: the input has no open edge, so the leak passes between polygons that touch \

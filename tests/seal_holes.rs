@@ -326,3 +326,58 @@ fn a_closed_noisy_cavern_does_not_leak_through_a_projection_seam() {
         }
     }
 }
+
+/// A closed input that leaks (tune-half cavern 4 with `--seal-holes off`: a crack of the
+/// complex, not of the model) gets the note that says so — not the one blaming
+/// T-junctions or overlaps the input does not have — and the default (auto) run has no
+/// leak and no note.
+#[test]
+fn a_leak_of_a_closed_input_is_named_a_crack_of_the_complex() {
+    use portalfind::suite::{Family, case};
+    let c = case(Family::Caverns, 4).expect("case");
+    let m = c.load().expect("model");
+    assert_eq!(
+        (m.report.open_edges, m.report.t_junctions, m.report.non_manifold_edges),
+        (0, 0, 0),
+        "the cavern is closed"
+    );
+    let dir = std::env::temp_dir().join(format!("portalfind-test-{}-closednote", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("cavern4.obj");
+    let mut obj = String::new();
+    for v in &c.model.vertices {
+        obj.push_str(&format!("v {:e} {:e} {:e}\n", v[0], v[1], v[2]));
+    }
+    for p in &c.model.polygons {
+        obj.push('f');
+        for i in p {
+            obj.push_str(&format!(" {}", i + 1));
+        }
+        obj.push('\n');
+    }
+    std::fs::write(&path, obj).unwrap();
+    let complex = |extra: &[&str]| {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_portalfind"))
+            .arg("complex")
+            .arg(&path)
+            .args(["--no-validate"])
+            .args(extra)
+            .output()
+            .expect("run portalfind");
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        format!(
+            "{}{}",
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        )
+    };
+    let off = complex(&["--seal-holes", "off"]);
+    assert!(off.contains("the input is closed"), "{off}");
+    assert!(off.contains("a crack of the cell complex itself"), "{off}");
+    assert!(!off.contains("T-junctions or overlaps"), "{off}");
+    let auto = complex(&[]);
+    let leaks = auto.lines().find(|l| l.starts_with("leaks ")).expect("a leaks row");
+    assert_eq!(leaks.split_whitespace().last(), Some("0"), "{auto}");
+    assert!(!auto.contains("the input is closed"), "{auto}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
