@@ -38,7 +38,18 @@ fn main() {
         std::fs::write(p, s).unwrap();
     }
     let m = portalfind::model::from_soup(&c.name, vs, ps).expect("load");
-    let cx = portalfind::pipeline::complex_of_unchecked(&m).expect("complex");
+    // DIAG_SEAL_OFF=1: no sealing (as `--seal-holes off`).
+    let cx = if std::env::var("DIAG_SEAL_OFF").is_ok() {
+        let settings = portalfind::pipeline::CellSettings {
+            seal_holes: None,
+            ..Default::default()
+        };
+        portalfind::pipeline::build_cells_unchecked(&m, std::path::Path::new(&c.name), &settings, &mut |_| {})
+            .expect("complex")
+            .cx
+    } else {
+        portalfind::pipeline::complex_of_unchecked(&m).expect("complex")
+    };
     println!("{} {v}: {:#?}", c.name, cx.stats);
     let gap = portalfind::suite::stress::widest_gap(&m);
     println!(
