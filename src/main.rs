@@ -269,11 +269,11 @@ struct EvalArgs {
     /// Skip the sampling check.
     #[arg(long)]
     no_sampling: bool,
-    /// Sampling: random points per cell.
-    #[arg(long, default_value_t = 16)]
+    /// Sampling: random points per cell (at least 1).
+    #[arg(long, default_value_t = 16, value_parser = at_least_one)]
     points_per_cell: usize,
-    /// Sampling: random rays per point.
-    #[arg(long, default_value_t = 64)]
+    /// Sampling: random rays per point (at least 1).
+    #[arg(long, default_value_t = 64, value_parser = at_least_one)]
     rays_per_point: usize,
     /// Sampling: seed.
     #[arg(long, default_value_t = 1)]
@@ -291,8 +291,8 @@ struct EvalArgs {
     /// PVS: keep one-way pairs (no symmetric intersection; the old rule, for comparison).
     #[arg(long)]
     pvs_no_symmetric: bool,
-    /// Walkthrough: horizontal field of view in degrees (the image is 4:3).
-    #[arg(long, default_value_t = 90.0)]
+    /// Walkthrough: horizontal field of view in degrees (the image is 4:3), above 0 and below 180.
+    #[arg(long, default_value_t = 90.0, value_parser = field_of_view)]
     fov: f64,
     /// Walkthrough: the model's up axis (x, y or z).
     #[arg(long, default_value = "z", value_parser = ["x", "y", "z"])]
@@ -1229,6 +1229,26 @@ fn gen_thesis(name: &str, out: &std::path::Path) -> Result<()> {
     Ok(())
 }
 
+/// A count that must be at least 1 (a sampling check with 0 samples tests nothing).
+fn at_least_one(s: &str) -> std::result::Result<usize, String> {
+    match s.parse::<usize>() {
+        Ok(0) => Err("must be at least 1 (0 would check nothing)".into()),
+        Ok(n) => Ok(n),
+        Err(e) => Err(format!("expected a whole number of at least 1: {e}")),
+    }
+}
+
+/// A horizontal field of view in degrees: finite, above 0 and below 180 (a pinhole camera).
+fn field_of_view(s: &str) -> std::result::Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(f) if f > 0.0 && f < 180.0 => Ok(f),
+        Ok(f) => Err(format!(
+            "{f} is not a field of view: give degrees above 0 and below 180, e.g. 90"
+        )),
+        Err(e) => Err(format!("expected degrees, e.g. 90: {e}")),
+    }
+}
+
 fn gen_rooms(nx: usize, ny: usize, tess: usize, out: &std::path::Path) -> Result<()> {
     use portalfind::model::write;
     if nx == 0 || ny == 0 || nx.saturating_mul(ny) > 1_000_000 {
@@ -1244,6 +1264,11 @@ fn gen_rooms(nx: usize, ny: usize, tess: usize, out: &std::path::Path) -> Result
         Some("mesh") => write::mesh_text(&s.vertices, &s.polygons),
         _ => bail!("output {} must end in .obj or .mesh", out.display()),
     };
+    // Create a missing parent folder, as `gen thesis` and `run` do.
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("cannot create the folder {} for {}", dir.display(), out.display()))?;
+    }
     write::write_atomic(out, text.as_bytes()).with_context(|| format!("cannot write {}", out.display()))?;
     let tris: usize = s.polygons.iter().map(|p| p.len() - 2).sum();
     println!(

@@ -1,0 +1,61 @@
+//! Command-line arguments that would make a check meaningless are refused by the parser
+//! (exit code 2, naming the value and the valid range), and `gen rooms` creates a
+//! missing parent folder (as `gen thesis` and `run` do). Found by a new-user trial, session 26.
+
+use std::process::Command;
+
+fn pf(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_portalfind"))
+        .args(args)
+        .output()
+        .expect("run portalfind")
+}
+
+fn model() -> String {
+    format!("{}/models/thesis/four_room_optimized.obj", env!("CARGO_MANIFEST_DIR"))
+}
+
+#[test]
+fn fields_of_view_outside_0_to_180_degrees_are_refused() {
+    let out = std::env::temp_dir().join(format!("portalfind-test-{}-fov", std::process::id()));
+    for fov in ["400", "nan", "0", "-5", "180", "inf"] {
+        let arg = format!("--fov={fov}");
+        let o = pf(&["run", &model(), "--out", out.to_str().unwrap(), "--walkthrough", &arg]);
+        assert_eq!(o.status.code(), Some(2), "--fov {fov}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains("--fov"), "--fov {fov}: {err}");
+        assert!(!out.exists(), "--fov {fov}: nothing written");
+    }
+}
+
+#[test]
+fn sampling_counts_of_zero_are_refused() {
+    let out = std::env::temp_dir().join(format!("portalfind-test-{}-zero", std::process::id()));
+    for flag in ["--points-per-cell", "--rays-per-point"] {
+        let o = pf(&["run", &model(), "--out", out.to_str().unwrap(), "--evaluate", flag, "0"]);
+        assert_eq!(o.status.code(), Some(2), "{flag} 0");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains("at least 1"), "{flag}: {err}");
+        assert!(!out.exists(), "{flag}: nothing written");
+    }
+}
+
+#[test]
+fn gen_rooms_creates_a_missing_parent_folder() {
+    let dir = std::env::temp_dir().join(format!("portalfind-test-{}-genrooms", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let path = dir.join("a/b/rooms.obj");
+    let o = pf(&[
+        "gen",
+        "rooms",
+        "--nx",
+        "2",
+        "--ny",
+        "1",
+        "--out",
+        path.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(portalfind::model::load_model(&path).is_ok());
+    let _ = std::fs::remove_dir_all(&dir);
+}
