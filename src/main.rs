@@ -943,12 +943,14 @@ impl Drop for LazyBar {
 struct SealArg(Option<pipeline::SealSize>);
 
 impl std::str::FromStr for SealArg {
-    type Err = pipeline::BadSealSize;
+    type Err = String;
     fn from_str(s: &str) -> std::result::Result<Self, Self::Err> {
         if s.trim() == "off" {
             return Ok(SealArg(None));
         }
-        s.parse().map(|x| SealArg(Some(x)))
+        s.parse()
+            .map(|x| SealArg(Some(x)))
+            .map_err(|e: pipeline::BadSealSize| format!("{e}, or off (no sealing at all)"))
     }
 }
 

@@ -59,3 +59,13 @@ fn gen_rooms_creates_a_missing_parent_folder() {
     assert!(portalfind::model::load_model(&path).is_ok());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_bad_seal_size_names_every_valid_form_including_off() {
+    let o = pf(&["complex", &model(), "--seal-holes", "xyz"]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    for form in ["0.25", "1%", "auto", "off"] {
+        assert!(err.contains(form), "{form}: {err}");
+    }
+}
