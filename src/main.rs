@@ -63,10 +63,13 @@ enum Cmd {
         /// Seal openings narrower than SIZE where the model leaks (Umbra's "smallest
         /// hole"): in model units (0.25) or as a percentage of the bounding-box diagonal
         /// (1%); `auto` (the default) seals only cracks (openings narrower than the
-        /// sliver width, lying on a wall); `off` seals nothing. The exterior flood fill
+        /// sliver width, lying on a wall); `off` seals no opening. The exterior flood fill
         /// treats them as closed; each sealed hole is printed (where, how wide) and, for
         /// run, listed in result.json. Leaks through wider openings are still reported.
-        /// See the README's "Sealing leaky levels".
+        /// (The "sealing cracks" stage and the cells "split by sealing" in the statistics
+        /// are another pass, part of building the complex, that runs with every SIZE: it
+        /// splits cells a polygon's crossing too small to cut at the time would leave
+        /// bridging a wall.) See the README's "Sealing leaky levels".
         #[arg(long, value_name = "SIZE", default_value = "auto")]
         seal_holes: SealArg,
     },
@@ -124,10 +127,13 @@ enum Cmd {
         /// Seal openings narrower than SIZE where the model leaks (Umbra's "smallest
         /// hole"): in model units (0.25) or as a percentage of the bounding-box diagonal
         /// (1%); `auto` (the default) seals only cracks (openings narrower than the
-        /// sliver width, lying on a wall); `off` seals nothing. The exterior flood fill
+        /// sliver width, lying on a wall); `off` seals no opening. The exterior flood fill
         /// treats them as closed; each sealed hole is printed (where, how wide) and, for
         /// run, listed in result.json. Leaks through wider openings are still reported.
-        /// See the README's "Sealing leaky levels".
+        /// (The "sealing cracks" stage and the cells "split by sealing" in the statistics
+        /// are another pass, part of building the complex, that runs with every SIZE: it
+        /// splits cells a polygon's crossing too small to cut at the time would leave
+        /// bridging a wall.) See the README's "Sealing leaky levels".
         #[arg(long, value_name = "SIZE", default_value = "auto")]
         seal_holes: SealArg,
         /// Also draw intermediate states: for each count N (comma-separated, e.g.
