@@ -751,6 +751,10 @@ pub fn run_model(
     run_model_inner(model, model_path, settings, stages, false, progress)
 }
 
+/// The stage that times the decimation past the stop (the weight curve's rest): its
+/// presence in `result.json` tells [`reexport`] that the run drew the full curve.
+const CURVE_STAGE: &str = "decimation: past the stop (weight curve)";
+
 /// [`run_model`], and for a run that stops early also the collapses of the run to the end
 /// ([`Run::full_steps`], for the weight curve; [`Decimation::run_with_curve`]: with the
 /// `clearance` engine and a threshold stop, from the same pass). Its extra time is the
@@ -815,7 +819,7 @@ fn run_model_inner(
     // The rest of the decimation's time: past the stop (when asked), else the replayed
     // partition and freeing the engine's state (after its timed collapses).
     let rest = if full_steps.is_some() {
-        "decimation: past the stop (weight curve)"
+        CURVE_STAGE
     } else {
         "decimation: partition and clean-up"
     };
@@ -942,20 +946,20 @@ pub fn reexport(dir: &Path, model: Option<&Path>, export: &[String]) -> Result<c
         .iter()
         .map(|&n| crate::output::snapshot(&m, &path, cx, &dec, n))
         .collect::<Result<Vec<_>, _>>()?;
-    let full = (stop != StopRule::None).then(|| {
-        Decimation::run(
-            cx,
-            &crate::decimate::Settings {
-                stop: StopRule::None,
-                ..settings
-            },
-        )
-    });
+    // The weight curve past the stop, exactly as the run drew it: only when the run drew
+    // one (its stages name the pass; a run without timings is assumed to have), and from
+    // the same function (`run_with_curve`: for `aperture` the run to the end is the
+    // stopped pass continued, not a second run with stop `none`, whose gate keeps pairs
+    // apart and ends elsewhere), so the plots come out byte-identical.
+    let drew_curve = doc.stages.is_empty() || doc.stages.iter().any(|s| s.stage == CURVE_STAGE);
+    let full = (stop != StopRule::None && drew_curve)
+        .then(|| Decimation::run_with_curve(cx, &settings, &mut |_, _| {}).1)
+        .flatten();
     let opts = crate::output::SetOptions {
         cx: Some(cx),
         export,
         notes: crate::output::Notes {
-            full_steps: full.as_ref().map(|f| &f.steps[..]),
+            full_steps: full.as_deref(),
             ..Default::default()
         },
         strip_timings: doc.stages.is_empty(),
