@@ -1181,7 +1181,7 @@ fn complex(
         write_or_clear_pointfile(pf, points)?;
     }
     if cx.stats.active_cells == 0 {
-        report_leaks_and_orientation(&cx, &m);
+        report_leaks_and_orientation(&cx, &m, None);
     }
     if validate {
         let t1 = Instant::now();
@@ -1593,7 +1593,7 @@ fn run_decimation(
         println!("removed an interrupted run's staging directory {}", d.display());
     }
     print_sealed(&sealed, &m);
-    report_leaks_and_orientation(&cx, &m);
+    report_leaks_and_orientation(&cx, &m, Some(&out.join(portalfind::output::LEAK_FILE)));
     if let Some(settings) = evaluate {
         println!();
         let rs = serde_json::to_value(&doc.settings).unwrap_or_default();
@@ -1759,7 +1759,11 @@ fn gap_hint(cx: &portalfind::complex::CellComplex, m: &portalfind::model::Model)
 
 /// Warnings a user must not miss: leaks, and a model whose every region was removed
 /// (typically polygons facing away from free space, the opposite of our convention).
-fn report_leaks_and_orientation(cx: &portalfind::complex::CellComplex, m: &portalfind::model::Model) {
+fn report_leaks_and_orientation(
+    cx: &portalfind::complex::CellComplex,
+    m: &portalfind::model::Model,
+    leak_file: Option<&std::path::Path>,
+) {
     if cx.stats.tolerance_level > 0 {
         for why in &cx.stats.rejected_levels {
             eprintln!("warning: the cell complex was invalid at tolerance {why}");
@@ -1779,10 +1783,13 @@ fn report_leaks_and_orientation(cx: &portalfind::complex::CellComplex, m: &porta
     }
     for (i, l) in cx.leaks.iter().enumerate() {
         let hull = m.to_user(l.hull_point);
+        // `run` writes the first leak's path beside its results; `complex` on request.
+        let path = match leak_file {
+            Some(f) if i == 0 => format!("its path is in {} (load it in TrenchBroom)", f.display()),
+            _ => "write its path with `portalfind complex MODEL --pointfile FILE` (load it in TrenchBroom)".into(),
+        };
         eprintln!(
-            "warning: leak {i}: the region of {} cells reaches the outside near ({:.3}, {:.3}, {:.3}); \
-             its path is in OUT/leak.pts after `run`, or write it with \
-             `portalfind complex MODEL --pointfile FILE` (load it in TrenchBroom)",
+            "warning: leak {i}: the region of {} cells reaches the outside near ({:.3}, {:.3}, {:.3}); {path}",
             l.region_cells, hull[0], hull[1], hull[2]
         );
     }

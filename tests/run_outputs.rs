@@ -880,6 +880,9 @@ fn run_writes_the_leak_pointfile_into_its_set() {
     let o = pf(&["run", "open.obj", "--stop", "none", "--out", "out"], &base, &[]);
     assert!(o.status.success(), "{}", text(&o));
     assert!(text(&o).contains("out/leak.pts"), "{}", text(&o));
+    // The leak warning names the real file, not a placeholder.
+    assert!(text(&o).contains("its path is in out/leak.pts"), "{}", text(&o));
+    assert!(!text(&o).contains("OUT/leak.pts"), "{}", text(&o));
     let pts = std::fs::read_to_string(base.join("out/leak.pts")).unwrap();
     let o = pf(
         &["complex", "open.obj", "--no-validate", "--pointfile", "c.pts"],
