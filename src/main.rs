@@ -101,8 +101,9 @@ enum Cmd {
         /// clearance.
         #[arg(long, default_value = "hull")]
         estimator: portalfind::decimate::Estimator,
-        /// threshold:W (stop when the lowest weight is >= W), cells:N, or none (one cell
-        /// per connected region; records the whole weight curve). Default: the heuristic's
+        /// threshold:W (stop when the lowest weight is >= W), cells:N, or none (until no
+        /// pair is left: one cell per connected region, but with aperture's gate the pairs
+        /// it keeps apart stay apart; records the whole weight curve). Default: the heuristic's
         /// own stop — threshold:1.8 for clearance (a pass narrower than 1/1.8 of the
         /// smaller room separates it; chosen on the tune half of `bench accuracy`),
         /// threshold:3 for the thesis's (it suggests 3 to 4 for aspect; refined and volume

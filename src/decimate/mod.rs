@@ -209,7 +209,8 @@ pub enum StopReason {
         /// The target.
         target: usize,
     },
-    /// No pair left: one cell per connected region.
+    /// No pair left to collapse: one cell per connected region, or (with the `aperture`
+    /// gate) every remaining pair kept apart by the gate.
     Exhausted,
 }
 
@@ -220,7 +221,11 @@ impl fmt::Display for StopReason {
                 write!(f, "lowest weight {next_weight} reached the threshold {threshold}")
             }
             StopReason::Cells { target } => write!(f, "{target} cells reached"),
-            StopReason::Exhausted => write!(f, "no pair left (one cell per connected region)"),
+            StopReason::Exhausted => write!(
+                f,
+                "no pair left to collapse (one cell per connected region, or, with the aperture gate, \
+                 every remaining pair kept apart by it)"
+            ),
         }
     }
 }
