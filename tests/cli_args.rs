@@ -15,28 +15,31 @@ fn model() -> String {
     format!("{}/models/thesis/four_room_optimized.obj", env!("CARGO_MANIFEST_DIR"))
 }
 
+/// `run MODEL --out OUT EXTRA..` is refused by the argument parser (exit code 2), its error
+/// contains `needle`, and nothing is written.
+fn assert_run_refused(extra: &[&str], needle: &str) {
+    let out = std::env::temp_dir().join(format!("portalfind-test-{}-refused", std::process::id()));
+    let model = model();
+    let mut args = vec!["run", model.as_str(), "--out", out.to_str().unwrap()];
+    args.extend(extra);
+    let o = pf(&args);
+    assert_eq!(o.status.code(), Some(2), "{extra:?}");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains(needle), "{extra:?}: {err}");
+    assert!(!out.exists(), "{extra:?}: nothing written");
+}
+
 #[test]
 fn fields_of_view_outside_0_to_180_degrees_are_refused() {
-    let out = std::env::temp_dir().join(format!("portalfind-test-{}-fov", std::process::id()));
     for fov in ["400", "nan", "0", "-5", "180", "inf"] {
-        let arg = format!("--fov={fov}");
-        let o = pf(&["run", &model(), "--out", out.to_str().unwrap(), "--walkthrough", &arg]);
-        assert_eq!(o.status.code(), Some(2), "--fov {fov}");
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert!(err.contains("--fov"), "--fov {fov}: {err}");
-        assert!(!out.exists(), "--fov {fov}: nothing written");
+        assert_run_refused(&["--walkthrough", &format!("--fov={fov}")], "not a field of view");
     }
 }
 
 #[test]
 fn sampling_counts_of_zero_are_refused() {
-    let out = std::env::temp_dir().join(format!("portalfind-test-{}-zero", std::process::id()));
     for flag in ["--points-per-cell", "--rays-per-point"] {
-        let o = pf(&["run", &model(), "--out", out.to_str().unwrap(), "--evaluate", flag, "0"]);
-        assert_eq!(o.status.code(), Some(2), "{flag} 0");
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert!(err.contains("at least 1"), "{flag}: {err}");
-        assert!(!out.exists(), "{flag}: nothing written");
+        assert_run_refused(&["--evaluate", flag, "0"], "at least 1");
     }
 }
 

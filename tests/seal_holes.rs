@@ -258,29 +258,8 @@ fn a_leak_warning_names_the_widest_gap_and_a_seal_size_that_closes_it() {
     let dir = std::env::temp_dir().join(format!("portalfind-test-{}-gaphint", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("noisy.obj");
-    let mut obj = String::new();
-    for v in &vs {
-        obj.push_str(&format!("v {:e} {:e} {:e}\n", v[0], v[1], v[2]));
-    }
-    for p in &ps {
-        obj.push('f');
-        for i in p {
-            obj.push_str(&format!(" {}", i + 1));
-        }
-        obj.push('\n');
-    }
-    std::fs::write(&path, obj).unwrap();
-    let complex = |extra: &[&str]| {
-        let o = std::process::Command::new(env!("CARGO_BIN_EXE_portalfind"))
-            .arg("complex")
-            .arg(&path)
-            .args(["--no-validate"])
-            .args(extra)
-            .output()
-            .expect("run portalfind");
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        String::from_utf8_lossy(&o.stdout).to_string()
-    };
+    write_obj(&path, &vs, &ps);
+    let complex = |extra: &[&str]| complex_cli(&path, extra);
     let leaks = |out: &str| {
         let line = out.lines().find(|l| l.starts_with("leaks ")).expect("a leaks row");
         line.split_whitespace().last().unwrap().parse::<usize>().unwrap()
@@ -344,33 +323,8 @@ fn a_leak_of_a_closed_input_is_named_a_crack_of_the_complex() {
     let dir = std::env::temp_dir().join(format!("portalfind-test-{}-closednote", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("cavern4.obj");
-    let mut obj = String::new();
-    for v in &c.model.vertices {
-        obj.push_str(&format!("v {:e} {:e} {:e}\n", v[0], v[1], v[2]));
-    }
-    for p in &c.model.polygons {
-        obj.push('f');
-        for i in p {
-            obj.push_str(&format!(" {}", i + 1));
-        }
-        obj.push('\n');
-    }
-    std::fs::write(&path, obj).unwrap();
-    let complex = |extra: &[&str]| {
-        let o = std::process::Command::new(env!("CARGO_BIN_EXE_portalfind"))
-            .arg("complex")
-            .arg(&path)
-            .args(["--no-validate"])
-            .args(extra)
-            .output()
-            .expect("run portalfind");
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        format!(
-            "{}{}",
-            String::from_utf8_lossy(&o.stdout),
-            String::from_utf8_lossy(&o.stderr)
-        )
-    };
+    write_obj(&path, &c.model.vertices, &c.model.polygons);
+    let complex = |extra: &[&str]| complex_cli(&path, extra);
     let off = complex(&["--seal-holes", "off"]);
     assert!(off.contains("the input is closed"), "{off}");
     assert!(off.contains("a crack of the cell complex itself"), "{off}");
@@ -380,4 +334,38 @@ fn a_leak_of_a_closed_input_is_named_a_crack_of_the_complex() {
     assert_eq!(leaks.split_whitespace().last(), Some("0"), "{auto}");
     assert!(!auto.contains("the input is closed"), "{auto}");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Writes a vertex/polygon soup as OBJ (`{:e}` coordinates, which round-trip; 1-based indices).
+fn write_obj(path: &std::path::Path, vs: &[[f64; 3]], ps: &[Vec<u32>]) {
+    let mut obj = String::new();
+    for v in vs {
+        obj.push_str(&format!("v {:e} {:e} {:e}\n", v[0], v[1], v[2]));
+    }
+    for p in ps {
+        obj.push('f');
+        for i in p {
+            obj.push_str(&format!(" {}", i + 1));
+        }
+        obj.push('\n');
+    }
+    std::fs::write(path, obj).unwrap();
+}
+
+/// `portalfind complex PATH --no-validate EXTRA..`, which must succeed: its stdout, then
+/// its stderr (the leak warnings and notes).
+fn complex_cli(path: &std::path::Path, extra: &[&str]) -> String {
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_portalfind"))
+        .arg("complex")
+        .arg(path)
+        .args(["--no-validate"])
+        .args(extra)
+        .output()
+        .expect("run portalfind");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
 }
