@@ -190,7 +190,12 @@ fn segment_min_from(field: &ClearanceField, p: [f64; 3], dp: f64, q: [f64; 3], d
             return best;
         }
         let t2 = (t + (0.25 * c / len).max(1.0 / 64.0)).min(1.0);
-        let x = [p[0] + d[0] * t2, p[1] + d[1] * t2, p[2] + d[2] * t2];
+        // The last sample is `q` itself, bit for bit (`p + (q - p)` may round off it).
+        let x = if t2 >= 1.0 {
+            q
+        } else {
+            [p[0] + d[0] * t2, p[1] + d[1] * t2, p[2] + d[2] * t2]
+        };
         c = if !dq.is_nan() && x.map(f64::to_bits) == q.map(f64::to_bits) {
             dq
         } else {
@@ -239,11 +244,14 @@ fn portal_passage(
     (db, xb): (f64, [f64; 3]),
 ) -> f64 {
     let mut s = 0.0f64;
+    // The first leg starts at `xa`, so it is never above `da` (its marching's first sample
+    // is `da` itself), and the second ends at `xb`, so it is never above `db` (its last
+    // sample is `xb` itself, answered by `db`): no later path can raise `s` once
+    // `s >= min(da, db)`, and the remaining samples are not queried
+    // (`passage_stops_at_the_first_cells_clearance`).
+    let top = da.min(db);
     for piece in pieces {
-        // The first leg starts at `xa`, so it is never above `da` (its marching's first
-        // sample is `da` itself), and no later path can raise `s` once `s >= da`: the
-        // remaining samples are not queried (`passage_stops_at_the_first_cells_clearance`).
-        if s >= da {
+        if s >= top {
             break;
         }
         let m = piece.centroid();
@@ -269,7 +277,7 @@ fn portal_passage(
                 continue;
             }
             s = s.max(first.min(segment_min_from(field, y, dy, xb, db, s)));
-            if s >= da {
+            if s >= top {
                 break;
             }
         }
@@ -2678,7 +2686,12 @@ mod tests {
             let mut t = 0.0;
             let mut best = f64::INFINITY;
             loop {
-                let x = [p[0] + d[0] * t, p[1] + d[1] * t, p[2] + d[2] * t];
+                // The last sample is `q` itself.
+                let x = if t >= 1.0 {
+                    q
+                } else {
+                    [p[0] + d[0] * t, p[1] + d[1] * t, p[2] + d[2] * t]
+                };
                 let c = field.distance(x);
                 best = best.min(c);
                 if t >= 1.0 || len == 0.0 {
@@ -2845,6 +2858,39 @@ mod tests {
                 stopped > 0,
                 "{name}: no portal's pass reaches its first cell's clearance"
             );
+        }
+    }
+
+    #[test]
+    fn a_pass_is_never_above_either_cells_clearance() {
+        // A path's lowest point is never above its ends: the marching lands on each leg's
+        // end bit for bit, so not even a rounding of `p + (q - p)` lifts a pass above the
+        // second cell's clearance (it did by an ulp on four_room_distorted and caverns), and
+        // the passage may stop at the lower of the two clearances. Here: the bound holds
+        // for every portal, and the stop at the second cell is reached.
+        for (name, cx) in complexes() {
+            let f = CellField::new(&cx);
+            let mut at_second = 0;
+            for (k, p) in cx.portals.iter().enumerate() {
+                let [a, b] = p.cells.map(|c| c.idx());
+                if !(cx.cells[a].active() && cx.cells[b].active()) {
+                    continue;
+                }
+                let (da, db) = (f.best_of(&cx.cells[a]).0, f.best_of(&cx.cells[b]).0);
+                assert!(
+                    f.passage[k] <= da.min(db),
+                    "{name}: portal {k} pass above a cell's clearance"
+                );
+                let r = f.refined_passage(&cx, k);
+                assert!(
+                    r <= da.min(db),
+                    "{name}: portal {k} refined pass above a cell's clearance"
+                );
+                if f.passage[k] > 0.0 && f.passage[k] >= db && db < da {
+                    at_second += 1;
+                }
+            }
+            assert!(at_second > 0, "{name}: no pass stops at the second cell's clearance");
         }
     }
 
