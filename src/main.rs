@@ -1170,7 +1170,9 @@ fn complex(
             hull[2]
         );
     }
-    if let Some(hint) = gap_hint(&cx, &m) {
+    if !cx.stats.faces_reversed
+        && let Some(hint) = gap_hint(&cx, &m)
+    {
         println!("{hint}");
     }
     print_sealed(&sealed, &m);
@@ -1181,7 +1183,9 @@ fn complex(
             .map(|l| cx.leak_pointfile(l).into_iter().map(|p| m.to_user(p)).collect());
         write_or_clear_pointfile(pf, points)?;
     }
-    if cx.stats.active_cells == 0 {
+    if cx.stats.faces_reversed {
+        eprintln!("{}", reversed_warning(&cx));
+    } else if cx.stats.active_cells == 0 {
         report_leaks_and_orientation(&cx, &m, None);
     }
     if validate {
@@ -1794,16 +1798,42 @@ fn report_leaks_and_orientation(
             l.region_cells, hull[0], hull[1], hull[2]
         );
     }
-    if let Some(hint) = gap_hint(cx, m) {
-        eprintln!("{hint}");
+    if cx.stats.faces_reversed {
+        // The gap hint would send the user looking for holes that are not there.
+        eprintln!("{}", reversed_warning(cx));
+    } else {
+        if let Some(hint) = gap_hint(cx, m) {
+            eprintln!("{hint}");
+        }
+        if cx.stats.active_cells == 0 {
+            eprintln!(
+                "warning: no region faces any polygon, so every cell was removed as exterior; \
+                 polygons must be counter-clockwise seen from free space (the room side) — \
+                 if this model's faces point outwards, reverse their winding"
+            );
+        }
     }
-    if cx.stats.active_cells == 0 {
-        eprintln!(
-            "warning: no region faces any polygon, so every cell was removed as exterior; \
-             polygons must be counter-clockwise seen from free space (the room side) — \
-             if this model's faces point outwards, reverse their winding"
-        );
-    }
+}
+
+/// The warning for [`portalfind::complex::ComplexStats::faces_reversed`]: the enclosed
+/// regions face only back sides (removed), what is left faces fronts and leaks (or nothing
+/// is left), and reversing every polygon would give enclosed regions without a leak.
+fn reversed_warning(cx: &portalfind::complex::CellComplex) -> String {
+    let what = if cx.stats.active_cells == 0 {
+        "every cell was removed as exterior".to_string()
+    } else {
+        format!(
+            "every region kept leaks ({} leak{}: the space around the model, facing the outer walls' fronts)",
+            cx.stats.leaks,
+            if cx.stats.leaks == 1 { "" } else { "s" }
+        )
+    };
+    format!(
+        "warning: the model's faces appear reversed: {what}, while with every polygon's winding \
+         reversed the enclosed space would be kept with no leak. Polygons must be counter-clockwise \
+         seen from free space (the room side); flip the winding (the face normals) in the modelling \
+         tool or exporter (portalfind has no option to flip it), e.g. Blender's Mesh > Normals > Flip"
+    )
 }
 
 fn locate(dir: &std::path::Path, points: &std::path::Path) -> Result<()> {

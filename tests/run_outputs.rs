@@ -1012,3 +1012,64 @@ fn export_keeps_the_default_runs_weight_curve_plots() {
     }
     std::fs::remove_dir_all(&base).unwrap();
 }
+
+/// OBJ text with every face's winding reversed.
+fn reversed_obj_text(text: &str) -> String {
+    text.lines()
+        .map(|l| match l.strip_prefix("f ") {
+            Some(refs) => format!("f {}\n", refs.split_whitespace().rev().collect::<Vec<_>>().join(" ")),
+            None => format!("{l}\n"),
+        })
+        .collect()
+}
+
+/// A model whose every face is reversed gets the advice to flip the winding, not a hunt for
+/// holes: the rooms face only back sides (removed), the space around the model faces the
+/// outer walls' fronts and leaks (four_room_optimized), or nothing is left (two_rooms). A
+/// correctly wound model, and one with a real hole, get no such advice. Found by a new-user
+/// trial.
+#[test]
+fn reversed_faces_are_reported_as_reversed_not_as_leaks() {
+    let base = tmp_dir("reversed");
+    let fr = std::fs::read_to_string(format!(
+        "{}/models/thesis/four_room_optimized.obj",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap();
+    std::fs::write(base.join("fr.obj"), &fr).unwrap();
+    std::fs::write(base.join("fr_rev.obj"), reversed_obj_text(&fr)).unwrap();
+    two_rooms_obj(&base, "tr.obj", 0.0);
+    let tr = std::fs::read_to_string(base.join("tr.obj")).unwrap();
+    std::fs::write(base.join("tr_rev.obj"), reversed_obj_text(&tr)).unwrap();
+    let mut open = scenes::two_rooms();
+    open.polygons.remove(0);
+    write_obj(&open, &base.join("open.obj"));
+    for (model, reversed) in [
+        ("fr_rev.obj", true),
+        ("tr_rev.obj", true),
+        ("fr.obj", false),
+        ("open.obj", false),
+    ] {
+        let o = pf(&["run", model, "--out", "out"], &base, &[]);
+        assert!(o.status.success(), "{model}: {}", text(&o));
+        let t = text(&o);
+        assert_eq!(
+            t.contains("the model's faces appear reversed"),
+            reversed,
+            "{model}: {t}"
+        );
+        if reversed {
+            assert!(t.contains("flip the winding"), "{model}: {t}");
+            // No advice to seal holes that are not there.
+            assert!(!t.contains("--seal-holes"), "{model}: {t}");
+        }
+        let o = pf(&["complex", model, "--no-validate"], &base, &[]);
+        assert_eq!(
+            text(&o).contains("the model's faces appear reversed"),
+            reversed,
+            "complex {model}: {}",
+            text(&o)
+        );
+    }
+    std::fs::remove_dir_all(&base).unwrap();
+}

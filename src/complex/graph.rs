@@ -564,7 +564,14 @@ impl CellComplex {
         let mut removed = 0;
         let mut leaks = Vec::new();
         let mut sealed = Vec::new();
+        // For `faces_reversed`: kept regions that do not leak; regions the reversed model
+        // would keep, and whether one of them would leak.
+        let (mut inside_kept, mut kept_reversed, mut leak_reversed) = (0usize, 0usize, false);
         for members in &regions {
+            if members.iter().any(|&c| self.faces_occluder_back(c)) {
+                kept_reversed += 1;
+                leak_reversed |= members.iter().any(|c| hull_open.contains_key(c));
+            }
             let facing = members.iter().any(|&c| self.faces_occluder(c));
             if !facing {
                 self.stats.exterior_regions += 1;
@@ -576,6 +583,7 @@ impl CellComplex {
             }
             if !members.iter().any(|c| hull_open.contains_key(c)) {
                 self.stats.interior_regions += 1;
+                inside_kept += 1;
                 continue;
             }
             if let Some(s) = sealer.as_deref_mut()
@@ -587,12 +595,14 @@ impl CellComplex {
                 removed += split.exterior.len();
                 self.stats.exterior_regions += split.exterior_regions;
                 self.stats.interior_regions += split.interior_regions;
+                inside_kept += split.interior_regions;
                 sealed.extend(split.sealed);
                 continue;
             }
             self.stats.interior_regions += 1;
             leaks.push(self.trace_leak(members, &adj, &hull_open));
         }
+        self.stats.faces_reversed = inside_kept == 0 && kept_reversed > 0 && !leak_reversed;
         self.stats.exterior_cells_removed = removed;
         self.stats.active_cells = self.cells.iter().filter(|c| c.active()).count();
         self.portals

@@ -569,6 +569,15 @@ pub struct ComplexStats {
     pub leaks: usize,
     /// Openings sealed by [`CellComplex::seal_holes`] (holes, each of one or more portals).
     pub openings_sealed: usize,
+    /// The polygons appear to face the wrong way: the exterior flood fill kept no region
+    /// that stays inside (every kept region leaks, or none was kept), while with every
+    /// polygon's winding reversed some region would be kept and none would leak (the
+    /// regions, portals and hull openings do not depend on the winding, so this is what
+    /// the reversed model's flood fill gives, sealing aside). Typically a model whose every
+    /// face was exported reversed: the rooms face only back sides and are removed, the
+    /// space around the model faces the outer walls' fronts and leaks. Not serialized.
+    #[serde(skip)]
+    pub faces_reversed: bool,
     /// The fallback level of the tolerances this complex was built with
     /// ([`crate::Tolerances::fallback`]; 0: the model's own). Set by
     /// [`crate::pipeline::build_cells`] when the complex at the lower levels failed its
@@ -801,13 +810,25 @@ impl CellComplex {
     /// cell that is itself a crack ([`CellComplex::is_thin`]) faces nothing, like a flat
     /// tetrahedron.
     pub fn faces_occluder(&self, c: CellId) -> bool {
+        self.faced_by(c, true)
+    }
+
+    /// [`CellComplex::faces_occluder`] with every polygon's winding reversed: whether some
+    /// occluder on the cell's patches turns its back side to the cell (same crack rules).
+    pub fn faces_occluder_back(&self, c: CellId) -> bool {
+        self.faced_by(c, false)
+    }
+
+    /// Whether an occluder's front (`front`) or back side faces the cell, in the sense of
+    /// [`CellComplex::faces_occluder`].
+    fn faced_by(&self, c: CellId, front: bool) -> bool {
         let cell = &self.cells[c.idx()];
         let facing = cell.tags().iter().any(|&t| {
             let p = &self.patches[t as usize];
             let side = if p.cells[0] == c { 0 } else { 1 };
             p.occluders
                 .iter()
-                .any(|o| o.faces == side && !graph::is_sliver(&o.polygon, &self.tol))
+                .any(|o| (o.faces == side) == front && !graph::is_sliver(&o.polygon, &self.tol))
         });
         facing && !cell.flat && !self.is_thin(c)
     }
