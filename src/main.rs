@@ -1560,7 +1560,13 @@ fn run_decimation(
             "weights computed / re-weighs skipped",
             format!("{} / {}", s.weights_computed, s.reweighs_skipped),
         ),
-        ("stop rule / reason", format!("{stop} / {}", dec.stop)),
+        (
+            "stop rule / reason",
+            match dec.cells_target_warning() {
+                Some(_) => format!("{stop} / already {} cells, nothing collapsed", s.initial_cells),
+                None => format!("{stop} / {}", dec.stop),
+            },
+        ),
     ];
     for (k, v) in rows {
         println!("{k:<44}{v:>10}");
@@ -1598,6 +1604,9 @@ fn run_decimation(
         println!("removed an interrupted run's staging directory {}", d.display());
     }
     print_sealed(&sealed, &m);
+    if let Some(w) = dec.cells_target_warning() {
+        eprintln!("warning: {w}");
+    }
     report_leaks_and_orientation(&cx, &m, Some(&out.join(portalfind::output::LEAK_FILE)));
     if let Some(settings) = evaluate {
         println!();

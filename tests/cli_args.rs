@@ -72,3 +72,29 @@ fn a_bad_seal_size_names_every_valid_form_including_off() {
         assert!(err.contains(form), "{form}: {err}");
     }
 }
+
+/// `--stop cells:K` with K above the active cells collapses nothing: the run says so (a
+/// warning naming both counts) instead of reporting "K cells reached"; the result is still
+/// written (it is the unmerged complex, which has at most K cells).
+#[test]
+fn a_cells_target_above_the_active_cells_is_reported() {
+    let out = std::env::temp_dir().join(format!("portalfind-test-{}-cells-above", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let o = pf(&[
+        "run",
+        &model(),
+        "--stop",
+        "cells:100000",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (stdout, stderr) = (String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    assert!(!stdout.contains("100000 cells reached"), "{stdout}");
+    assert!(stdout.contains("nothing collapsed"), "{stdout}");
+    assert!(
+        stderr.contains("warning: the stop rule cells:100000 asks for more cells than the run started with"),
+        "{stderr}"
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}

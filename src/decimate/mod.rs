@@ -1080,6 +1080,21 @@ fn count_regions(n: usize, pairs: &[Pair]) -> usize {
 }
 
 impl Decimation {
+    /// With `cells:N` and `N` above the active cells the run started with, nothing was
+    /// collapsed (the stop held before the first collapse, so [`StopReason::Cells`] does not
+    /// mean `N` cells were reached): a warning saying so, naming both counts. `None` otherwise.
+    pub fn cells_target_warning(&self) -> Option<String> {
+        match self.settings.stop {
+            StopRule::Cells(n) if n > self.stats.initial_cells => Some(format!(
+                "the stop rule cells:{n} asks for more cells than the run started with ({} active \
+                 cells), so nothing was collapsed and the result is the unmerged cell complex; give \
+                 cells:N with N below {} to merge cells",
+                self.stats.initial_cells, self.stats.initial_cells
+            )),
+            _ => None,
+        }
+    }
+
     /// Runs the decimation on the active cells of `cx`.
     pub fn run(cx: &CellComplex, settings: &Settings) -> Decimation {
         Self::run_with_progress(cx, settings, &mut |_, _| {})
