@@ -197,7 +197,8 @@ enum Cmd {
         /// Output directory of `portalfind run` (or of one experiment).
         dir: PathBuf,
         /// The model, when it is no longer at the path result.json records (relative to the
-        /// directory the run was started in).
+        /// directory the run was started in; a relative path is tried from the current folder,
+        /// then from DIR and every folder above it).
         #[arg(long)]
         model: Option<PathBuf>,
         /// Write the files here instead of into DIR (created if missing).
@@ -215,7 +216,9 @@ enum Cmd {
         /// Formats (comma-separated): prt, obj, gltf, dot, html.
         #[arg(long, value_delimiter = ',', value_parser = export_format, required = true)]
         to: Vec<String>,
-        /// The run's model, if it is no longer at the path recorded in result.json.
+        /// The run's model, if it is no longer at the path recorded in result.json (a
+        /// relative path is tried from the current folder, then from DIR and every folder
+        /// above it).
         #[arg(long)]
         model: Option<PathBuf>,
     },
@@ -859,7 +862,8 @@ fn run(cli: Cli) -> Result<()> {
             )
         }),
         Cmd::Evaluate { dir, model, out, eval } => {
-            let o = portalfind::evaluate::evaluate_dir(&dir, model.as_deref(), &eval.settings())
+            let model = run_model(&dir, model).with_context(|| format!("cannot evaluate {}", dir.display()))?;
+            let o = portalfind::evaluate::evaluate_dir(&dir, Some(&model), &eval.settings())
                 .with_context(|| format!("cannot evaluate {}", dir.display()))?;
             let out = out.unwrap_or(dir);
             std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
@@ -867,7 +871,8 @@ fn run(cli: Cli) -> Result<()> {
         }
         Cmd::Locate { dir, points } => locate(&dir, &points),
         Cmd::Export { dir, to, model } => {
-            let w = pipeline::reexport(&dir, model.as_deref(), &to)?;
+            let model = run_model(&dir, model)?;
+            let w = pipeline::reexport(&dir, Some(&model), &to)?;
             for f in &w.files {
                 println!("wrote {}", f.display());
             }
@@ -882,6 +887,25 @@ fn run(cli: Cli) -> Result<()> {
             evaluate,
         } => experiment(&path, out, &only, shard, merge, evaluate),
     }
+}
+
+/// The model of the run in `dir` for `evaluate` and `export`: `--model`, or the path its
+/// result.json records ([`pipeline::run_model_path`]), with a note when that was found from
+/// the run directory rather than from the current folder.
+fn run_model(dir: &std::path::Path, model: Option<PathBuf>) -> Result<PathBuf> {
+    if let Some(m) = model {
+        return Ok(m);
+    }
+    let (path, from_dir) = pipeline::recorded_model_path(dir)?;
+    if from_dir {
+        eprintln!(
+            "note: the run's model is not at its recorded path from the current folder; using {} \
+             (found from {}; --model PATH overrides)",
+            path.display(),
+            dir.display()
+        );
+    }
+    Ok(path)
 }
 
 /// `run --export`'s values: the opt-in formats of the exporter registry.

@@ -314,6 +314,29 @@ pub enum PipelineError {
     /// The result document cannot be assembled.
     #[error(transparent)]
     Output(#[from] OutputError),
+    /// The model recorded in a run's result.json is not found ([`run_model_path`]).
+    #[error(
+        "cannot find the run's model `{recorded}` (the path recorded in {}{}); give the model's \
+         path with --model PATH",
+        dir.join(crate::output::RESULT_FILE).display(),
+        match cwd {
+            Some(cwd) => format!(
+                ", relative to the folder the run was started in; tried from the current folder \
+                 {} and from {} and every folder above it",
+                cwd.display(),
+                dir.display()
+            ),
+            None => String::new(),
+        }
+    )]
+    ModelNotFound {
+        /// The path as result.json records it.
+        recorded: String,
+        /// The run directory.
+        dir: std::path::PathBuf,
+        /// The current folder, for a relative `recorded` (`None` for an absolute one).
+        cwd: Option<std::path::PathBuf>,
+    },
     /// A finished run directory cannot be re-exported ([`reexport`]).
     #[error("cannot re-export {}: {why}", dir.display())]
     Reexport {
@@ -379,6 +402,44 @@ pub fn load(path: &Path) -> Result<(Model, f64), PipelineError> {
     let t0 = Instant::now();
     let m = crate::model::load_model(path).map_err(|e| PipelineError::Load(Box::new(e)))?;
     Ok((m, t0.elapsed().as_secs_f64()))
+}
+
+/// Where the model of the run in `dir` is, when `--model` does not say: the path its
+/// result.json records ([`crate::output::ModelInfo::path`], `recorded`), as given when the run
+/// was started. A relative one is tried from the current folder first, then from `dir` and
+/// each folder above it (a run started in S with `--out out/x` has its results in S/out/x,
+/// so its model is found from there wherever the command runs now). The second member is
+/// `true` when the model was found from `dir` rather than from the current folder. The
+/// model found is checked against the run by the callers (the rebuilt cells must be the
+/// run's).
+pub fn run_model_path(dir: &Path, recorded: &str) -> Result<(std::path::PathBuf, bool), PipelineError> {
+    let p = Path::new(recorded);
+    if p.exists() {
+        return Ok((p.to_path_buf(), false));
+    }
+    let not_found = |cwd| PipelineError::ModelNotFound {
+        recorded: recorded.to_string(),
+        dir: dir.to_path_buf(),
+        cwd,
+    };
+    if p.is_absolute() {
+        return Err(not_found(None));
+    }
+    let cwd = std::env::current_dir().ok();
+    let abs = std::fs::canonicalize(dir).unwrap_or_else(|_| dir.to_path_buf());
+    for base in abs.ancestors() {
+        let c = base.join(p);
+        if c.is_file() {
+            return Ok((c, true));
+        }
+    }
+    Err(not_found(Some(cwd.unwrap_or_else(|| ".".into()))))
+}
+
+/// [`run_model_path`] of the run in `dir` (reads its result.json).
+pub fn recorded_model_path(dir: &Path) -> Result<(std::path::PathBuf, bool), PipelineError> {
+    let doc = crate::output::read_result(dir)?;
+    run_model_path(dir, &doc.model.path)
 }
 
 /// The Delaunay cell complex of `model` with the default settings, no progress reports
@@ -872,7 +933,10 @@ pub fn reexport(dir: &Path, model: Option<&Path>, export: &[String]) -> Result<c
                 .into(),
         ));
     }
-    let path = model.map_or_else(|| std::path::PathBuf::from(&doc.model.path), Path::to_path_buf);
+    let path = match model {
+        Some(m) => m.to_path_buf(),
+        None => run_model_path(dir, &doc.model.path)?.0,
+    };
     let (m, _) = load(&path)?;
     let mut cs = CellSettings::of(if doc.settings.subdivision == "bsp" {
         Subdivision::Bsp

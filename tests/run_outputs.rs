@@ -1073,3 +1073,48 @@ fn reversed_faces_are_reported_as_reversed_not_as_leaks() {
     }
     std::fs::remove_dir_all(&base).unwrap();
 }
+
+/// `export` and `evaluate` find a run's model from its directory when the recorded path
+/// (relative to the folder the run was started in) does not resolve from the current folder,
+/// and say so; when it is nowhere, the error names the recorded path, the result.json it
+/// came from and `--model`, which overrides it. Found by a new-user trial.
+#[test]
+fn export_and_evaluate_find_the_model_from_the_run_directory_or_name_model_option() {
+    let base = tmp_dir("model-path");
+    let sub = base.join("sub");
+    std::fs::create_dir_all(&sub).unwrap();
+    two_rooms_obj(&sub, "m.obj", 0.0);
+    let o = pf(&["run", "m.obj", "--stop", "cells:2", "--out", "out"], &sub, &[]);
+    assert!(o.status.success(), "{}", text(&o));
+    // From another folder: found beside the run's directory.
+    let o = pf(&["export", "sub/out", "--to", "prt"], &base, &[]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(
+        text(&o).contains("note: the run's model is not at its recorded path"),
+        "{}",
+        text(&o)
+    );
+    assert!(base.join("sub/out/cells.prt").is_file());
+    let o = pf(&["evaluate", "sub/out", "--no-sampling", "--out", "ev"], &base, &[]);
+    assert!(o.status.success(), "{}", text(&o));
+    // Nowhere: the error says where the path came from and how to override it.
+    std::fs::rename(sub.join("m.obj"), base.join("moved.obj")).unwrap();
+    for cmd in [
+        vec!["export", "sub/out", "--to", "dot"],
+        vec!["evaluate", "sub/out", "--no-sampling", "--out", "ev2"],
+    ] {
+        let o = pf(&cmd, &base, &[]);
+        assert!(!o.status.success(), "{cmd:?}");
+        let t = text(&o);
+        for want in ["`m.obj`", "sub/out/result.json", "--model PATH", "current folder"] {
+            assert!(t.contains(want), "{cmd:?}: {want}: {t}");
+        }
+    }
+    let o = pf(
+        &["export", "sub/out", "--to", "dot", "--model", "moved.obj"],
+        &base,
+        &[],
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    std::fs::remove_dir_all(&base).unwrap();
+}

@@ -219,7 +219,10 @@ fn stage(name: &str, t0: Instant) -> StageTime {
 /// result.json (which is as given on the run's command line).
 pub fn load_run(dir: &Path, model: Option<&Path>) -> Result<LoadedRun, EvaluateError> {
     let doc = crate::output::read_result(dir)?;
-    let path = model.map_or_else(|| PathBuf::from(&doc.model.path), Path::to_path_buf);
+    let path = match model {
+        Some(m) => m.to_path_buf(),
+        None => crate::pipeline::run_model_path(dir, &doc.model.path)?.0,
+    };
     let t0 = Instant::now();
     let (model, _) = crate::pipeline::load(&path)?;
     let mut stages = vec![stage("load model", t0)];
