@@ -604,3 +604,50 @@ fn a_medit_mesh_gets_a_hint_that_it_is_another_format() {
         .to_string();
     assert!(e.contains("Medit/TetGen"), "{e}");
 }
+
+/// A file in the temporary folder (unique per process).
+fn temp_file(name: &str, bytes: &[u8]) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("portalfind-model-input-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join(name);
+    std::fs::write(&p, bytes).unwrap();
+    p
+}
+
+/// A face index too large for 64 bits is out of range (file, line, index), not a generic
+/// parse error, in OBJ and in .mesh. Found by a new-user trial.
+#[test]
+fn an_overflowing_face_index_is_out_of_range() {
+    let big = "99999999999999999999999";
+    for (name, text, line) in [
+        (
+            "overflow.obj",
+            format!("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 {big}\n"),
+            5,
+        ),
+        (
+            "overflow_neg.obj",
+            format!("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -{big}/1\n"),
+            4,
+        ),
+        (
+            "overflow.mesh",
+            format!("4 1\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 {big}\n"),
+            6,
+        ),
+    ] {
+        let p = temp_file(name, text.as_bytes());
+        let e = load_model(&p).unwrap_err();
+        assert!(
+            matches!(&e, ModelError::IndexTooLarge { line: l, polygon: 0, index, .. } if *l == line && index.ends_with(big)),
+            "{name}: {e:?}"
+        );
+        assert_eq!(e.line(), Some(line));
+        let msg = e.to_string();
+        assert!(
+            msg.starts_with(&format!("{}:{line}: ", p.display())) && msg.contains("out of range") && msg.contains(big),
+            "{msg}"
+        );
+        std::fs::remove_file(&p).unwrap();
+    }
+}

@@ -101,6 +101,24 @@ pub enum ModelError {
         convention: &'static str,
     },
 
+    /// A polygon refers to a vertex index too large for any integer type the reader
+    /// uses (it overflows 64 bits), so it is out of range whatever the vertex count.
+    #[error(
+        "{file}:{line}: polygon {polygon} (0-based) refers to vertex index {index}, which is out of \
+         range (it does not even fit in 64 bits; a model has at most 4294967295 vertices, \
+         {convention}); fix the index"
+    )]
+    IndexTooLarge {
+        file: String,
+        line: usize,
+        /// 0-based polygon (face) index.
+        polygon: usize,
+        /// The index as written in the input.
+        index: String,
+        /// The index convention of the format.
+        convention: &'static str,
+    },
+
     /// A polygon in the input has fewer than 3 vertices.
     #[error(
         "{}: polygon {polygon} (0-based) has {count} vertices, a polygon needs at least 3; \
@@ -197,7 +215,9 @@ impl ModelError {
     /// The 1-based line the error refers to, when known.
     pub fn line(&self) -> Option<usize> {
         match self {
-            ModelError::Malformed { line, .. } | ModelError::CountMismatch { line, .. } => Some(*line),
+            ModelError::Malformed { line, .. }
+            | ModelError::CountMismatch { line, .. }
+            | ModelError::IndexTooLarge { line, .. } => Some(*line),
             ModelError::NonFinite { line, .. }
             | ModelError::IndexOutOfRange { line, .. }
             | ModelError::TooFewVertices { line, .. } => *line,

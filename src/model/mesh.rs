@@ -118,6 +118,15 @@ pub(crate) fn parse_mesh(file: &str, text: &str) -> Result<Soup, ModelError> {
             .ok_or_else(|| malformed(line_no, raw, element(), expected))?;
         let mut verts = Vec::with_capacity(n.min(64));
         for t in toks {
+            if super::obj::is_integer_literal(t) && t.parse::<i64>().is_err() {
+                return Err(ModelError::IndexTooLarge {
+                    file: file.to_string(),
+                    line: line_no,
+                    polygon: pi,
+                    index: t.to_string(),
+                    convention: CONVENTION,
+                });
+            }
             let idx: i64 = t.parse().map_err(|_| malformed(line_no, raw, element(), expected))?;
             if idx < 0 || idx as u64 >= nv as u64 {
                 return Err(ModelError::IndexOutOfRange {

@@ -16,6 +16,13 @@ pub(crate) fn strip_comment(line: &str) -> &str {
     }
 }
 
+/// Whether `t` is an integer as written (an optional sign, then decimal digits), whatever
+/// its size: an index that fails to parse as one is out of range, not malformed.
+pub(crate) fn is_integer_literal(t: &str) -> bool {
+    let digits = t.strip_prefix(['+', '-']).unwrap_or(t);
+    !digits.is_empty() && digits.bytes().all(|b| b.is_ascii_digit())
+}
+
 /// Shortened copy of a line for error messages.
 pub(crate) fn excerpt(line: &str) -> String {
     let t = line.trim();
@@ -255,6 +262,15 @@ fn parse_piece(
                 let mut verts = Vec::new();
                 for t in toks {
                     let first = t.split('/').next().unwrap_or("");
+                    if is_integer_literal(first) && first.parse::<i64>().is_err() {
+                        return Err(ModelError::IndexTooLarge {
+                            file: file.to_string(),
+                            line: line_no,
+                            polygon: pi,
+                            index: first.to_string(),
+                            convention: CONVENTION,
+                        });
+                    }
                     let idx: i64 = first.parse().map_err(|_| ModelError::Malformed {
                         file: file.to_string(),
                         line: line_no,
