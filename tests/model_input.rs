@@ -651,3 +651,36 @@ fn an_overflowing_face_index_is_out_of_range() {
         std::fs::remove_file(&p).unwrap();
     }
 }
+
+/// A binary file named `.obj` (here a PNG image) is reported as not a text model file,
+/// naming the file and what it looks like, not as an empty model; a file with a stray
+/// Latin-1 byte in a comment still loads. Found by a new-user trial.
+#[test]
+fn a_binary_file_named_obj_is_not_a_text_model() {
+    let png: &[u8] = b"\x89PNG\r\n\x1a\n\x00\x00\x00\x0dIHDR\x00\x00\x00\x01\x00\x00\x00\x01\x08\x00\x00\x00\x00";
+    for name in ["picture.obj", "picture.mesh"] {
+        let p = temp_file(name, png);
+        let e = load_model(&p).unwrap_err();
+        assert!(matches!(e, ModelError::NotText { .. }), "{name}: {e:?}");
+        let msg = e.to_string();
+        assert!(
+            msg.contains(&p.display().to_string()) && msg.contains("not a text model file") && msg.contains("PNG"),
+            "{msg}"
+        );
+        std::fs::remove_file(&p).unwrap();
+    }
+    // Not UTF-8 and nothing of a model in it, without a NUL byte.
+    let p = temp_file("junk.obj", b"\xc3\x28\xa0\xa1 \xff\xfe\xfd\n\x80\x81\n");
+    let e = load_model(&p).unwrap_err();
+    assert!(
+        matches!(e, ModelError::NotText { .. }) && e.to_string().contains("not valid UTF-8"),
+        "{e:?}"
+    );
+    std::fs::remove_file(&p).unwrap();
+    let cube = std::fs::read(fixture("cube.obj")).unwrap();
+    let mut latin1 = b"# caf\xe9 (Latin-1)\n".to_vec();
+    latin1.extend(cube);
+    let p = temp_file("latin1.obj", &latin1);
+    assert!(load_model(&p).is_ok());
+    std::fs::remove_file(&p).unwrap();
+}

@@ -26,6 +26,22 @@ pub enum ModelError {
         error: std::io::Error,
     },
 
+    /// The file is not text: it holds a NUL byte (no text model does), or it is not UTF-8
+    /// and has no vertex or polygon line.
+    #[error(
+        "`{}` is not a text model file: {reason}{}; give a Wavefront OBJ or .mesh text file \
+         (export or convert the model to OBJ)",
+        path.display(),
+        kind.map(|k| format!(" (it starts like {k})")).unwrap_or_default()
+    )]
+    NotText {
+        path: PathBuf,
+        /// What gave it away (binary content, invalid UTF-8, at which byte).
+        reason: String,
+        /// The file type its first bytes announce, when recognised (e.g. `a PNG image`).
+        kind: Option<&'static str>,
+    },
+
     /// The extension is neither `.obj` nor `.mesh`.
     #[error(
         "`{}`: unknown model file extension `{ext}`; supported are `.obj` (Wavefront OBJ) and \

@@ -262,6 +262,21 @@ pub fn load_model(path: &Path) -> Result<Model, ModelError> {
         path: path.to_path_buf(),
         error,
     })?;
+    let not_text = |reason: String| ModelError::NotText {
+        path: path.to_path_buf(),
+        reason,
+        kind: binary_kind(&bytes),
+    };
+    // No text model holds a NUL byte; images, archives and binary meshes nearly all do
+    // within their first bytes.
+    if let Some(i) = bytes.iter().position(|&b| b == 0) {
+        return Err(not_text(format!(
+            "it holds binary data (a NUL byte at byte offset {i})"
+        )));
+    }
+    // Invalid UTF-8 is read leniently (a Latin-1 comment or material name must not stop a
+    // model), unless nothing of a model is found in it.
+    let utf8 = std::str::from_utf8(&bytes).err();
     let text = String::from_utf8_lossy(&bytes);
     let file = path.display().to_string();
     let name = path
@@ -273,7 +288,34 @@ pub fn load_model(path: &Path) -> Result<Model, ModelError> {
     } else {
         mesh::parse_mesh(&file, &text)?
     };
+    if let Some(e) = utf8
+        && soup.vertices.is_empty()
+        && soup.polygons.is_empty()
+    {
+        return Err(not_text(format!(
+            "it is not valid UTF-8 text (an invalid byte at byte offset {}) and holds no vertex or \
+             polygon line",
+            e.valid_up_to()
+        )));
+    }
     clean::clean(&name, &file, soup)
+}
+
+/// The file type announced by the first bytes of `bytes`, for formats a model file is
+/// sometimes confused with.
+fn binary_kind(bytes: &[u8]) -> Option<&'static str> {
+    const MAGIC: [(&[u8], &str); 9] = [
+        (b"\x89PNG\r\n\x1a\n", "a PNG image"),
+        (b"\xff\xd8\xff", "a JPEG image"),
+        (b"\xff\xfe", "UTF-16 text: save it as UTF-8"),
+        (b"\xfe\xff", "UTF-16 text: save it as UTF-8"),
+        (b"GIF8", "a GIF image"),
+        (b"PK\x03\x04", "a ZIP archive"),
+        (b"\x1f\x8b", "a gzip file"),
+        (b"glTF", "a binary glTF (.glb) file"),
+        (b"Kaydara FBX Binary", "a binary FBX file"),
+    ];
+    MAGIC.iter().find(|(m, _)| bytes.starts_with(m)).map(|(_, k)| *k)
 }
 
 /// Parses `.mesh` text (see the module documentation) and cleans it. `name` is used as the
