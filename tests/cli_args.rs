@@ -98,3 +98,26 @@ fn a_cells_target_above_the_active_cells_is_reported() {
     );
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// `--out afile/sub` with `afile` a file is refused naming the file, not as "cannot read".
+/// Found by a new-user trial.
+#[test]
+fn an_output_path_through_a_file_names_the_file() {
+    let base = std::env::temp_dir().join(format!("portalfind-test-{}-outfile", std::process::id()));
+    let _ = std::fs::remove_dir_all(&base);
+    std::fs::create_dir_all(&base).unwrap();
+    let afile = base.join("afile");
+    std::fs::write(&afile, "not a folder").unwrap();
+    for sub in ["sub", "sub/deeper"] {
+        let out = afile.join(sub);
+        let o = pf(&["run", &model(), "--out", out.to_str().unwrap()]);
+        assert!(!o.status.success());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            err.contains(&format!("{} is a file, not a folder", afile.display())) && !err.contains("cannot read"),
+            "{err}"
+        );
+    }
+    assert_eq!(std::fs::read_to_string(&afile).unwrap(), "not a folder");
+    std::fs::remove_dir_all(&base).unwrap();
+}

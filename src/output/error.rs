@@ -122,6 +122,19 @@ pub enum OutputError {
         /// The path.
         path: PathBuf,
     },
+    /// A folder on the output directory's path is a file.
+    #[error(
+        "cannot use {} as the output directory: {} is a file, not a folder; choose an output \
+         directory whose folders are folders",
+        path.display(),
+        file.display()
+    )]
+    ParentIsFile {
+        /// The output directory asked for.
+        path: PathBuf,
+        /// Its first component (from the end) that exists and is not a folder.
+        file: PathBuf,
+    },
     /// The output directory holds files named like outputs that no run of ours wrote.
     #[error(
         "{} already holds {}, which no portalfind run wrote (no manifest.json of ours lists {}); \

@@ -377,7 +377,21 @@ fn is_dir(dir: &Path) -> Result<bool, OutputError> {
             path: dir.to_path_buf(),
         }),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(false),
-        Err(e) => Err(io_read(dir)(e)),
+        Err(e) => {
+            // ENOTDIR: a folder of the path is a file (`afile/sub`); say which.
+            let file = dir
+                .ancestors()
+                .skip(1)
+                .filter(|a| !a.as_os_str().is_empty())
+                .find(|a| std::fs::metadata(a).is_ok_and(|m| !m.is_dir()));
+            match file {
+                Some(file) => Err(OutputError::ParentIsFile {
+                    path: dir.to_path_buf(),
+                    file: file.to_path_buf(),
+                }),
+                None => Err(io_read(dir)(e)),
+            }
+        }
     }
 }
 
