@@ -70,7 +70,7 @@ enum Cmd {
         /// are another pass, part of building the complex, that runs with every SIZE: it
         /// splits cells a polygon's crossing too small to cut at the time would leave
         /// bridging a wall.) See the README's "Sealing leaky levels".
-        #[arg(long, value_name = "SIZE", default_value = "auto")]
+        #[arg(long, value_name = "SIZE", default_value = "auto", allow_negative_numbers = true)]
         seal_holes: SealArg,
     },
     /// Generate test models (OBJ or .mesh by the output's extension).
@@ -135,7 +135,7 @@ enum Cmd {
         /// are another pass, part of building the complex, that runs with every SIZE: it
         /// splits cells a polygon's crossing too small to cut at the time would leave
         /// bridging a wall.) See the README's "Sealing leaky levels".
-        #[arg(long, value_name = "SIZE", default_value = "auto")]
+        #[arg(long, value_name = "SIZE", default_value = "auto", allow_negative_numbers = true)]
         seal_holes: SealArg,
         /// Also draw intermediate states: for each count N (comma-separated, e.g.
         /// 2000,500,200), the cells when N were left, rebuilt by replaying the recorded

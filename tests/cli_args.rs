@@ -99,6 +99,35 @@ fn a_cells_target_above_the_active_cells_is_reported() {
     let _ = std::fs::remove_dir_all(&out);
 }
 
+/// A negative seal size reaches the value parser (its message names the valid forms),
+/// instead of clap's tip to pass `-1` after `--`; a missing size before the next option
+/// is still "a value is required". Found by a new-user trial.
+#[test]
+fn a_negative_seal_size_gets_the_parsers_message() {
+    let o = pf(&["complex", &model(), "--seal-holes", "--no-validate"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("a value is required"));
+    for cmd in ["complex", "run"] {
+        for size in ["-1", "-0.5"] {
+            let o = if cmd == "run" {
+                let out = std::env::temp_dir().join(format!("portalfind-test-{}-negseal", std::process::id()));
+                let o = pf(&["run", &model(), "--seal-holes", size, "--out", out.to_str().unwrap()]);
+                assert!(!out.exists(), "nothing written");
+                o
+            } else {
+                pf(&["complex", &model(), "--seal-holes", size])
+            };
+            assert_eq!(o.status.code(), Some(2), "{cmd} {size}");
+            let err = String::from_utf8_lossy(&o.stderr);
+            assert!(!err.contains("-- "), "{cmd} {size}: {err}");
+            assert!(
+                err.contains(&format!("bad hole size \"{size}\"")) && err.contains("positive size"),
+                "{cmd} {size}: {err}"
+            );
+        }
+    }
+}
+
 /// `--out afile/sub` with `afile` a file is refused naming the file, not as "cannot read".
 /// Found by a new-user trial.
 #[test]
