@@ -315,28 +315,8 @@ pub enum PipelineError {
     #[error(transparent)]
     Output(#[from] OutputError),
     /// The model recorded in a run's result.json is not found ([`run_model_path`]).
-    #[error(
-        "cannot find the run's model `{recorded}` (the path recorded in {}{}); give the model's \
-         path with --model PATH",
-        dir.join(crate::output::RESULT_FILE).display(),
-        match cwd {
-            Some(cwd) => format!(
-                ", relative to the folder the run was started in; tried from the current folder \
-                 {} and from {} and every folder above it",
-                cwd.display(),
-                dir.display()
-            ),
-            None => String::new(),
-        }
-    )]
-    ModelNotFound {
-        /// The path as result.json records it.
-        recorded: String,
-        /// The run directory.
-        dir: std::path::PathBuf,
-        /// The current folder, for a relative `recorded` (`None` for an absolute one).
-        cwd: Option<std::path::PathBuf>,
-    },
+    #[error(transparent)]
+    ModelNotFound(Box<ModelNotFound>),
     /// A finished run directory cannot be re-exported ([`reexport`]).
     #[error("cannot re-export {}: {why}", dir.display())]
     Reexport {
@@ -345,6 +325,32 @@ pub enum PipelineError {
         /// Why.
         why: String,
     },
+}
+
+/// The model recorded in a run's result.json is not found ([`run_model_path`]): names the
+/// recorded path, the result.json and `--model`.
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "cannot find the run's model `{recorded}` (the path recorded in {}{}); give the model's \
+     path with --model PATH",
+    dir.join(crate::output::RESULT_FILE).display(),
+    match cwd {
+        Some(cwd) => format!(
+            ", relative to the folder the run was started in; tried from the current folder \
+             {} and from {} and every folder above it",
+            cwd.display(),
+            dir.display()
+        ),
+        None => String::new(),
+    }
+)]
+pub struct ModelNotFound {
+    /// The path as result.json records it.
+    pub recorded: String,
+    /// The run directory.
+    pub dir: std::path::PathBuf,
+    /// The current folder, for a relative `recorded` (`None` for an absolute one).
+    pub cwd: Option<std::path::PathBuf>,
 }
 
 /// The cell complex of a model and how it was made ([`build_cells`]).
@@ -417,10 +423,12 @@ pub fn run_model_path(dir: &Path, recorded: &str) -> Result<(std::path::PathBuf,
     if p.exists() {
         return Ok((p.to_path_buf(), false));
     }
-    let not_found = |cwd| PipelineError::ModelNotFound {
-        recorded: recorded.to_string(),
-        dir: dir.to_path_buf(),
-        cwd,
+    let not_found = |cwd| {
+        PipelineError::ModelNotFound(Box::new(ModelNotFound {
+            recorded: recorded.to_string(),
+            dir: dir.to_path_buf(),
+            cwd,
+        }))
     };
     if p.is_absolute() {
         return Err(not_found(None));
