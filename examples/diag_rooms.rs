@@ -60,6 +60,7 @@ fn main() {
                 .and_then(|d| d.parse().ok())
                 .unwrap_or(0.5),
             vector_opening: std::env::var("VECTOR").is_ok_and(|v| v != "0"),
+            shadow_opening: std::env::var("SHADOW").is_ok_and(|v| v != "0"),
             tunnels: std::env::var("TUNNELS").is_ok_and(|v| v != "0"),
         }),
         _ => None,

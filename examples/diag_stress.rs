@@ -205,6 +205,35 @@ fn main() {
                     .collect();
             println!("room {r} ({}): final cells {finals:?}", room.name);
         }
+        // DIAG_PAIR=i,j: the portals between final cells i and j, with their cells' peaks,
+        // the sampled and refined passes and the pieces' areas (the pass that keeps them apart).
+        if let Some((fi, fj)) = std::env::var("DIAG_PAIR").ok().and_then(|s| {
+            let (a, b) = s.split_once(',')?;
+            Some((a.parse::<usize>().ok()?, b.parse::<usize>().ok()?))
+        }) {
+            let f = portalfind::decimate::clearance::CellField::new(&cx);
+            let (mut best, mut area) = (0.0f64, 0.0f64);
+            let mut rows = Vec::new();
+            for (k, p) in cx.portals.iter().enumerate() {
+                let [a, b] = p.cells;
+                let (ca, cb) = (dec.partition.cell_of(a), dec.partition.cell_of(b));
+                if (ca, cb) == (Some(fi), Some(fj)) || (ca, cb) == (Some(fj), Some(fi)) {
+                    let ar: f64 = p.pieces.iter().map(|q| q.area()).sum();
+                    let r = f.refined_passage(&cx, k);
+                    best = best.max(r);
+                    area += ar;
+                    rows.push((r, k, f.value[a.idx()], f.value[b.idx()], f.passage[k], ar));
+                }
+            }
+            rows.sort_by(|x, y| y.0.total_cmp(&x.0));
+            println!(
+                "pair {fi},{fj}: {} portals, area {area:.3}, best refined pass {best:.4}",
+                rows.len()
+            );
+            for (r, k, pa, pb, s, ar) in rows.iter().take(15) {
+                println!("  portal {k}: peaks [{pa:.4}, {pb:.4}] pass {s:.4} refined {r:.4} area {ar:.4}");
+            }
+        }
     }
     // DIAG_CELLS=id,id,..: every face of those cells, its patch's cells and occluders.
     if let Ok(ids) = std::env::var("DIAG_CELLS") {

@@ -77,7 +77,10 @@
 //! of the state where the stopped run stops (one pass for the weight curve).
 //! Both tests are ratios (areas, volumes), so the gate is scale-free. With a `cells:N`
 //! stop the gate is off (that stop asks for N cells). The opening the sections are
-//! compared with is the portals' vector area ([`ApertureGate::vector_opening`]).
+//! compared with is the portals' vector area ([`ApertureGate::vector_opening`]); a pair
+//! it would keep apart is judged again against the portals' shadow (the area they cover
+//! on the portal plane, [`ApertureGate::shadow_opening`]), since a sum of signed areas
+//! cancels on an interface that wraps around one side.
 //!
 //! **Boundaries** ([`ApertureGate::tunnels`]). Along a tunnel of nearly uniform width
 //! the field has no sharp pass, so where two rooms' fronts meet is decided by the order
@@ -102,7 +105,7 @@ use super::MEAN_NORMAL_REL;
 use super::heap4::RunHeap;
 use super::heuristic::{PairContext, sanitize};
 use super::hull3::Hull3;
-use super::project::{Frame, P2, hull2, hull2_into, polygon_area};
+use super::project::{Frame, P2, hull2, hull2_into, polygon_area, union_area};
 use super::{Decimation, DecimationStats, Settings, Step, StopReason, StopRule};
 use crate::base::vec::{lerp, norm, normalize};
 use crate::complex::{Cell, CellComplex};
@@ -141,6 +144,7 @@ pub const DEFAULT_APERTURE: ApertureGate = ApertureGate {
     slab: SLAB,
     slab_peak: 0.5,
     vector_opening: true,
+    shadow_opening: true,
     tunnels: true,
 };
 
@@ -932,6 +936,16 @@ pub struct ApertureGate {
     /// spanning a planar rim is the rim's area, whatever the surface's folds, so it
     /// measures the opening itself and does not depend on the tetrahedralization.
     pub vector_opening: bool,
+    /// Whether a pair the vector opening would keep apart is judged again against the
+    /// *shadow* of its portals: the area of the union of the pieces projected on the
+    /// portal plane. The vector area is the rim's area only for a surface spanning a rim;
+    /// an interface that wraps around one side (two pieces of one room, one cupped in the
+    /// other's faces) cancels in the sum and reads as a small opening (6.8 of 67 on a
+    /// rotated generated building), though its shadow is large. The shadow is at least the
+    /// vector area (the norm of a sum of projected areas is at most the area they cover),
+    /// and it is the rim's area for a zigzag spanning a planar rim, so this only joins
+    /// pairs whose interface covers more than its signed sum says.
+    pub shadow_opening: bool,
     /// Whether the boundaries between the stopped merge's components are moved to the
     /// narrowest section between them ([`tunnel_labels`]) and the merge is run again
     /// within the moved groups. Along a tunnel of nearly uniform width the field has no
@@ -1370,6 +1384,47 @@ pub fn tunnel_labels(cx: &CellComplex, field: &CellField, part: &super::Partitio
 }
 
 /// The projected area of a component on `frame` (2D convex hull of its 3D hull).
+/// The portals between the component whose members are `members` and the component
+/// `other` (local ids, `owner` the union-find of the merge), in the members' order.
+fn portals_between<I: Ids>(
+    cx: &CellComplex,
+    cell_portals: &CellPortals,
+    ids: I,
+    owner: &mut [u32],
+    members: &[u32],
+    other: usize,
+) -> Vec<u32> {
+    let mut between = Vec::new();
+    for &m in members {
+        for &k in cell_portals.of(m as usize) {
+            let [x, y] = cx.portals[k as usize].cells;
+            let o = if x.0 == m { y.0 } else { x.0 };
+            if ids.local(o).is_some_and(|o| find(owner, o) as usize == other) {
+                between.push(k);
+            }
+        }
+    }
+    between
+}
+
+/// The shadow of portals on `frame`'s plane: the area of the union of their pieces,
+/// projected ([`union_area`], exact up to rounding).
+fn shadow(cx: &CellComplex, portals: &[u32], frame: &Frame) -> f64 {
+    let polys: Vec<Vec<P2>> = portals
+        .iter()
+        .flat_map(|&k| cx.portals[k as usize].pieces.iter())
+        .map(|piece| {
+            let mut q: Vec<P2> = piece.verts.iter().map(|v| frame.project(v)).collect();
+            if polygon_area(&q) < 0.0 {
+                q.reverse();
+            }
+            q
+        })
+        .collect();
+    let a = union_area(&polys);
+    if a.is_finite() { a.max(0.0) } else { 0.0 }
+}
+
 fn section(cx: &CellComplex, c: &mut Comp, frame: &Frame) -> f64 {
     let hull = c.hull.get_or_insert_with(|| {
         let pts: Vec<[f64; 3]> = c
@@ -2009,16 +2064,7 @@ fn merge<I: Ids>(
             // The portals between them, in the members' order; their refined passages are
             // independent (in parallel for a large component) and taken by `max`, whose
             // value does not depend on the order.
-            let mut between: Vec<u32> = Vec::new();
-            for &m in &comps[small].members {
-                for &k in cell_portals.of(m as usize) {
-                    let [x, y] = cx.portals[k as usize].cells;
-                    let o = if x.0 == m { y.0 } else { x.0 };
-                    if ids.local(o).is_some_and(|o| find(&mut owner, o) as usize == other) {
-                        between.push(k);
-                    }
-                }
-            }
+            let between = portals_between(cx, cell_portals, ids, &mut owner, &comps[small].members, other);
             // A portal's refined passage is a function of the field and the portal only, so
             // it is computed once per decimation ([`RefinedCache`]; not with a trace, whose
             // engine is the reference the cache is tested against).
@@ -2077,6 +2123,19 @@ fn merge<I: Ids>(
                 };
                 (pa, pb) = if first == a { (s1, s2) } else { (s2, s1) };
                 kept = pa.min(pb) >= g.ratio * opening(&g);
+            }
+            if let Some(g) = gated.filter(|g| kept && g.vector_opening && g.shadow_opening) {
+                // The vector area may cancel on an interface that wraps around one side:
+                // judged again against the pieces' shadow on the portal plane (at least
+                // the vector area, so this only ever joins).
+                let small = if comps[a].members.len() <= comps[b].members.len() {
+                    a
+                } else {
+                    b
+                };
+                let other = a + b - small;
+                let between = portals_between(cx, cell_portals, ids, &mut owner, &comps[small].members, other);
+                kept = pa.min(pb) >= g.ratio * shadow(cx, &between, &frame);
             }
             if let Some(t) = trace.as_deref_mut() {
                 t.push(TraceStep {
