@@ -368,7 +368,7 @@ impl CellField {
         // may stop there. The legs start at the cell's best sample: the first of the
         // highest clearances at its samples, the very value and sample `best_sample` finds
         // (its bounded queries give the bits of these).
-        let leg = |xs: &[[f64; 3]]| -> Vec<([f64; 3], f64, f64)> {
+        let clearances = |xs: &[[f64; 3]]| -> (Vec<f64>, f64, [f64; 3]) {
             let ds: Vec<f64> = xs.iter().map(|&x| self.field.distance(x)).collect();
             let (mut d, mut best) = (f64::NEG_INFINITY, xs[0]);
             for (&x, &dx) in xs.iter().zip(&ds) {
@@ -376,12 +376,23 @@ impl CellField {
                     (d, best) = (dx, x);
                 }
             }
+            (ds, d, best)
+        };
+        let (ca, cb) = (clearances(&sa), clearances(&sb));
+        // Every leg starts at its side's best sample (its first marching sample is that
+        // clearance), so a side's value is never above it, and no path raises `s` past the
+        // lower of the two: once there, nothing more is queried (the same bits).
+        let top = ca.1.min(cb.1);
+        if s0 >= top {
+            return if s0.is_finite() { s0 } else { self.passage[k] };
+        }
+        let leg = |xs: &[[f64; 3]], (ds, d, best): &(Vec<f64>, f64, [f64; 3])| -> Vec<([f64; 3], f64, f64)> {
             xs.iter()
-                .zip(&ds)
-                .map(|(&x, &dx)| (x, segment_min_from(&self.field, best, d, x, dx, s0), dx))
+                .zip(ds)
+                .map(|(&x, &dx)| (x, segment_min_from(&self.field, *best, *d, x, dx, s0), dx))
                 .collect()
         };
-        let (la, lb) = (leg(&sa), leg(&sb));
+        let (la, lb) = (leg(&sa, &ca), leg(&sb, &cb));
         // Values at or below `floor` only matter as such (callers take `max(floor, ·)`).
         let side = |legs: &[([f64; 3], f64, f64)], y: [f64; 3], dy: f64, floor: f64| {
             let mut v = f64::NEG_INFINITY;
@@ -405,6 +416,9 @@ impl CellField {
                 ys.push(lerp(&m, &mid(v, piece.verts[(i + 1) % n]), 0.75));
             }
             for y in ys {
+                if s >= top {
+                    break;
+                }
                 let dy = self.field.distance(y);
                 if dy <= s {
                     continue;
