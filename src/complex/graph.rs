@@ -564,14 +564,9 @@ impl CellComplex {
         let mut removed = 0;
         let mut leaks = Vec::new();
         let mut sealed = Vec::new();
-        // For `faces_reversed`: kept regions that do not leak; regions the reversed model
-        // would keep, and whether one of them would leak.
-        let (mut inside_kept, mut kept_reversed, mut leak_reversed) = (0usize, 0usize, false);
+        // For `faces_reversed`: kept regions that do not leak.
+        let mut inside_kept = 0usize;
         for members in &regions {
-            if members.iter().any(|&c| self.faces_occluder_back(c)) {
-                kept_reversed += 1;
-                leak_reversed |= members.iter().any(|c| hull_open.contains_key(c));
-            }
             let facing = members.iter().any(|&c| self.faces_occluder(c));
             if !facing {
                 self.stats.exterior_regions += 1;
@@ -602,7 +597,20 @@ impl CellComplex {
             self.stats.interior_regions += 1;
             leaks.push(self.trace_leak(members, &adj, &hull_open));
         }
-        self.stats.faces_reversed = inside_kept == 0 && kept_reversed > 0 && !leak_reversed;
+        // Only when nothing stays inside (a normal model never pays for it: the test scans
+        // every cell of a region that no back side faces, i.e. all of a model's rooms):
+        // the regions the reversed model would keep, and whether one of them would leak
+        // (regions, portals and hull openings do not depend on the winding).
+        self.stats.faces_reversed = inside_kept == 0 && {
+            let (mut kept_reversed, mut leak_reversed) = (0usize, false);
+            for members in &regions {
+                if members.iter().any(|&c| self.faces_occluder_back(c)) {
+                    kept_reversed += 1;
+                    leak_reversed |= members.iter().any(|c| hull_open.contains_key(c));
+                }
+            }
+            kept_reversed > 0 && !leak_reversed
+        };
         self.stats.exterior_cells_removed = removed;
         self.stats.active_cells = self.cells.iter().filter(|c| c.active()).count();
         self.portals
