@@ -504,8 +504,8 @@ enum BenchCmd {
         quick: bool,
         /// Instead of the table's models, the generated families (tessellated, greedy,
         /// multi-storey buildings; caverns) at these seeds (e.g. `--seeds 2,3`: models the
-        /// table never saw), without the thesis models.
-        #[arg(long, value_delimiter = ',')]
+        /// table never saw), without the thesis models. The suite's seeds are 0 to 9.
+        #[arg(long, value_delimiter = ',', value_parser = clap::value_parser!(u64).range(0..portalfind::suite::SEEDS))]
         seeds: Option<Vec<u64>>,
         /// Output directory.
         #[arg(long, default_value = "results/stress")]

@@ -150,3 +150,20 @@ fn an_output_path_through_a_file_names_the_file() {
     assert_eq!(std::fs::read_to_string(&afile).unwrap(), "not a folder");
     std::fs::remove_dir_all(&base).unwrap();
 }
+
+/// `bench stress --seeds` names a seed the suite does not have instead of skipping it
+/// (seeds 9,11 ran seed 9 alone, silently).
+#[test]
+fn a_stress_seed_outside_the_suite_is_refused() {
+    let o = pf(&[
+        "bench",
+        "stress",
+        "--seeds",
+        "9,11",
+        "--out",
+        "/nonexistent/never-written",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("11") && err.contains("0..10"), "{err}");
+}
