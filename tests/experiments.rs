@@ -504,3 +504,39 @@ fn rerun_writes_identical_committed_files() {
     let cells = std::fs::read_to_string(a.join("four_room_distorted/cells.svg")).unwrap();
     assert!(cells.contains("room sample point (truth)") && cells.contains("cells by volume"));
 }
+
+/// The committed results are what the code prints now: the thesis reproduction's files in
+/// `results/` are rewritten by `cargo run --release -- experiment experiments/`, and a change
+/// that moves them (session 27's exact landing reordered ties of the clearance runs' curves)
+/// must be committed with them. Checked on two small experiments, one of each engine.
+#[test]
+fn committed_results_match_a_fresh_run() {
+    for (file, name) in [
+        ("06_four_room_distorted.json", "four_room_distorted"),
+        ("17_four_room_distorted_clearance.json", "four_room_distorted_clearance"),
+    ] {
+        let out = tmp_dir(&format!("committed-{name}"));
+        let d = Definition::read(&repo().join("experiments").join(file)).unwrap();
+        let r = experiment::run_all(vec![Ok(d)], &opts(&out, false), &mut |_| {});
+        assert!(r.failures.is_empty());
+        let stale = |rel: &str| {
+            format!(
+                "results/{name}/{rel} is stale: rerun `cargo run --release -- experiment experiments/` and commit results/"
+            )
+        };
+        let read = |dir: &Path, rel: &str| std::fs::read(dir.join(name).join(rel)).unwrap();
+        let committed = repo().join("results");
+        assert!(
+            read(&out, "weight_curve.csv") == read(&committed, "weight_curve.csv"),
+            "{}",
+            stale("weight_curve.csv")
+        );
+        // The evaluation, but for the definition's path (the test runs from an absolute root).
+        let eval = |dir: &Path| {
+            let mut v: serde_json::Value = serde_json::from_slice(&read(dir, "evaluation.json")).unwrap();
+            v.as_object_mut().unwrap().remove("definition");
+            v
+        };
+        assert_eq!(eval(&out), eval(&committed), "{}", stale("evaluation.json"));
+    }
+}
