@@ -444,9 +444,31 @@ pub fn run_model_path(dir: &Path, recorded: &str) -> Result<(std::path::PathBuf,
     Err(not_found(Some(cwd.unwrap_or_else(|| ".".into()))))
 }
 
-/// [`run_model_path`] of the run in `dir` (reads its result.json).
+/// [`run_model_path`] of the run in `dir`. Reads only `model.path` from its result.json
+/// (the rest is skipped, not built: the caller reads the whole document once, with its
+/// checks, when it loads the run — a million-triangle run's result.json is ~0.5 GB).
 pub fn recorded_model_path(dir: &Path) -> Result<(std::path::PathBuf, bool), PipelineError> {
-    let doc = crate::output::read_result(dir)?;
+    #[derive(serde::Deserialize)]
+    struct Doc {
+        model: Model,
+    }
+    #[derive(serde::Deserialize)]
+    struct Model {
+        path: String,
+    }
+    // An interrupted run is refused as reading the whole document would refuse it.
+    if crate::output::read_manifest(dir)?.is_some_and(|m| !m.complete) {
+        return Err(OutputError::IncompleteRun { dir: dir.to_path_buf() }.into());
+    }
+    let p = dir.join(crate::output::RESULT_FILE);
+    let file = std::fs::File::open(&p).map_err(|source| OutputError::Read {
+        path: p.clone(),
+        source,
+    })?;
+    let doc: Doc = serde_json::from_reader(std::io::BufReader::new(file)).map_err(|source| OutputError::Parse {
+        path: p.clone(),
+        source,
+    })?;
     run_model_path(dir, &doc.model.path)
 }
 

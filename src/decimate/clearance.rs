@@ -178,8 +178,9 @@ pub struct CellField {
 /// first triangle at or below `floor` ([`ClearanceField::distance_above`]).
 ///
 /// `dq` is the clearance at `q` when the caller knows it (NaN when not): exact, or an
-/// answer of `distance_above(q, f, ·)` with `f <= floor`. The last sample lands on `q`
-/// itself (bit for bit) almost always; its query is then skipped for `dq`, which is what
+/// answer of `distance_above(q, f, ·)` with `f <= floor`. The last sample is `q` itself
+/// (bit for bit, not `p + (q - p)`, which may round off it); its query is skipped for `dq`
+/// (as is any earlier sample that rounds onto `q`), which is what
 /// the query would answer (the same bits when above `floor`; at or below `floor` both
 /// stop the marching with a value at or below `floor`).
 fn segment_min_from(field: &ClearanceField, p: [f64; 3], dp: f64, q: [f64; 3], dq: f64, floor: f64) -> f64 {
@@ -1397,7 +1398,16 @@ pub fn tunnel_labels(cx: &CellComplex, field: &CellField, part: &super::Partitio
     moved.then_some(label)
 }
 
-/// The projected area of a component on `frame` (2D convex hull of its 3D hull).
+/// The two components of a pair, the one with fewer members first (the side whose members
+/// are walked to find the portals between them).
+fn smaller_first(comps: &[Comp], a: usize, b: usize) -> (usize, usize) {
+    if comps[a].members.len() <= comps[b].members.len() {
+        (a, b)
+    } else {
+        (b, a)
+    }
+}
+
 /// The portals between the component whose members are `members` and the component
 /// `other` (local ids, `owner` the union-find of the merge), in the members' order.
 fn portals_between<I: Ids>(
@@ -1439,6 +1449,7 @@ fn shadow(cx: &CellComplex, portals: &[u32], frame: &Frame) -> f64 {
     if a.is_finite() { a.max(0.0) } else { 0.0 }
 }
 
+/// The projected area of a component on `frame` (2D convex hull of its 3D hull).
 fn section(cx: &CellComplex, c: &mut Comp, frame: &Frame) -> f64 {
     let hull = c.hull.get_or_insert_with(|| {
         let pts: Vec<[f64; 3]> = c
@@ -2070,11 +2081,7 @@ fn merge<I: Ids>(
         if (gated.is_some() || pre_refine) && !l.refined() {
             // Before the gate decides, the best lower bound of the pass we can afford:
             // refined passages of every portal between the two components.
-            let (small, other) = if comps[a].members.len() <= comps[b].members.len() {
-                (a, b)
-            } else {
-                (b, a)
-            };
+            let (small, other) = smaller_first(&comps, a, b);
             // The portals between them, in the members' order; their refined passages are
             // independent (in parallel for a large component) and taken by `max`, whose
             // value does not depend on the order.
@@ -2142,12 +2149,7 @@ fn merge<I: Ids>(
                 // The vector area may cancel on an interface that wraps around one side:
                 // judged again against the pieces' shadow on the portal plane (at least
                 // the vector area, so this only ever joins).
-                let small = if comps[a].members.len() <= comps[b].members.len() {
-                    a
-                } else {
-                    b
-                };
-                let other = a + b - small;
+                let (small, other) = smaller_first(&comps, a, b);
                 let between = portals_between(cx, cell_portals, ids, &mut owner, &comps[small].members, other);
                 kept = pa.min(pb) >= g.ratio * shadow(cx, &between, &frame);
             }
