@@ -1049,14 +1049,15 @@ fn tetra(path: &std::path::Path, validate: bool) -> Result<()> {
     println!("hull faces   {}", t.num_hull_faces());
     let st = t.stats();
     println!(
-        "build time   {build:.3} s (rank {:.3}, order {:.3}, insert {:.3}, compact {:.3}, canonical numbering {:.3}; {:.2} walk steps and {:.2} cavity tetrahedra per point)",
+        "build time   {build:.3} s (rank {:.3}, order {:.3}, insert {:.3}, compact {:.3}, canonical numbering {:.3}; {:.2} walk steps and {:.2} cavity tetrahedra per point, largest cavity {} vertices)",
         st.seconds[0],
         st.seconds[1],
         st.seconds[2],
         st.seconds[3],
         st.seconds[4],
         st.walk_steps as f64 / st.input_points as f64,
-        st.cavity_tets as f64 / st.input_points as f64
+        st.cavity_tets as f64 / st.input_points as f64,
+        st.largest_cavity_vertices
     );
     if validate {
         let t1 = Instant::now();

@@ -27,12 +27,14 @@ mod validate;
 
 pub use validate::{ValidationError, ValidationReport};
 
+use crate::base::hash::FxBuild;
 use crate::base::rng::SplitMix64;
 use crate::base::vec::sub;
 use crate::ids::{TetId, VertexId};
 use crate::predicates::{
     LatticePoints, P3, in_filter_range, insphere, insphere_in_range, orient3d, orient3d_in_range, sos_tie,
 };
+use std::collections::HashMap;
 
 /// The vertex slot value of the point at infinity.
 pub const INFINITE: u32 = u32::MAX;
@@ -83,6 +85,9 @@ pub struct BuildStats {
     pub walk_steps: u64,
     /// Tetrahedra removed in cavities (total over all insertions).
     pub cavity_tets: u64,
+    /// The most vertices on one cavity's boundary (typically a few dozen; most of the
+    /// points when a degenerate input makes one insertion's cavity hold most of them).
+    pub largest_cavity_vertices: usize,
     /// Seconds spent ranking (lexicographic sort, duplicates), ordering (BRIO + Hilbert),
     /// inserting, compacting the arrays (and mapping vertex ids back to input indices), and
     /// renumbering canonically (0 when skipped).
@@ -125,9 +130,59 @@ struct Builder<'a> {
     /// Per-vertex `(epoch, local number)` during one insertion: cavity vertices get small
     /// numbers so the faces through the new point pair up by a direct table lookup.
     local: Vec<(u32, u32)>,
-    /// Pairing table indexed by the triangular number of an edge's two local numbers.
+    /// Pairing table indexed by the triangular number of an edge's two local numbers,
+    /// below [`PAIR_TABLE_CAP`] (a cavity of up to about 360 vertices).
     table: Vec<u32>,
+    /// Pairing entries of the keys at or above the cap: a degenerate input can make one
+    /// cavity hold most of the points (a box corner inserted after 100,000 cocircular
+    /// points on a face), and a table of its `k²/2` keys took 2.1 GB for that one
+    /// insertion. Empty between insertions (every face through the new point pairs up).
+    wide: HashMap<usize, u32, FxBuild>,
     stats: BuildStats,
+}
+
+/// Entries of the direct pairing table (256 KB): a cavity whose keys could reach past it
+/// pairs its faces through a hash map instead. The pairing is the same either way (each
+/// key is seen exactly twice).
+const PAIR_TABLE_CAP: usize = 1 << 16;
+
+/// How [`Builder::star`] pairs the new faces through the new point: `pair` stores face
+/// `here` (tetrahedron slot × 4 + face) under its edge key and returns `u32::MAX`, or
+/// returns the face stored there before (and forgets it).
+trait Pairing {
+    fn pair(b: &mut Builder<'_>, key: usize, here: u32) -> u32;
+}
+
+/// The direct table (a cavity of up to about 360 vertices: every insertion of a
+/// non-degenerate input).
+struct TablePairing;
+
+impl Pairing for TablePairing {
+    #[inline(always)]
+    fn pair(b: &mut Builder<'_>, key: usize, here: u32) -> u32 {
+        if key >= b.table.len() {
+            b.table.resize((key + 1).next_power_of_two(), u32::MAX);
+        }
+        let g = b.table[key];
+        b.table[key] = if g == u32::MAX { here } else { u32::MAX };
+        g
+    }
+}
+
+/// The hash map (a huge cavity).
+struct WidePairing;
+
+impl Pairing for WidePairing {
+    #[inline(always)]
+    fn pair(b: &mut Builder<'_>, key: usize, here: u32) -> u32 {
+        match b.wide.remove(&key) {
+            Some(g) => g,
+            None => {
+                b.wide.insert(key, here);
+                u32::MAX
+            }
+        }
+    }
 }
 
 /// A tetrahedron about to be created from a cavity boundary face: the face's tetrahedron
@@ -430,6 +485,7 @@ impl<'a> Builder<'a> {
             boundary: Vec::new(),
             local: vec![(0, 0); pts.len() + 1],
             table: Vec::new(),
+            wide: HashMap::default(),
             stats,
         }
     }
@@ -698,6 +754,18 @@ impl<'a> Builder<'a> {
     /// new tetrahedra by the edge opposite the point (each such face is shared by exactly two).
     #[inline(never)] // a phase of its own in profiles
     fn star(&mut self) {
+        // A closed triangulated surface of F faces has F/2 + 2 vertices, so the keys stay
+        // below the direct table's cap when (F/2 + 2)² / 2 does.
+        let v = self.boundary.len() / 2 + 2;
+        if v * v / 2 < PAIR_TABLE_CAP {
+            self.star_with::<TablePairing>()
+        } else {
+            self.star_with::<WidePairing>()
+        }
+    }
+
+    #[inline(always)]
+    fn star_with<P: Pairing>(&mut self) {
         let stamp = self.epoch;
         let inf_local = self.pts.len();
         let mut k = 0u32;
@@ -742,20 +810,15 @@ impl<'a> Builder<'a> {
                 let (s1, s2) = EDGE[i][j];
                 let (lo, hi) = (l[s1].min(l[s2]) as usize, l[s1].max(l[s2]) as usize);
                 let key = hi * (hi - 1) / 2 + lo;
-                if key >= self.table.len() {
-                    self.table.resize((key + 1).next_power_of_two(), u32::MAX);
-                }
                 let here = u * 4 + j as u32;
-                let g = self.table[key];
-                if g == u32::MAX {
-                    self.table[key] = here;
-                } else {
-                    self.table[key] = u32::MAX;
+                let g = P::pair(self, key, here);
+                if g != u32::MAX {
                     self.t[u as usize].n[j] = g;
                     self.t[(g >> 2) as usize].n[(g & 3) as usize] = here;
                 }
             }
         }
+        self.stats.largest_cavity_vertices = self.stats.largest_cavity_vertices.max(k as usize);
         // Cavity slots the star did not need (only when it has fewer tetrahedra than the
         // cavity) are freed.
         for c in boundary.len()..self.cavity.len() {
