@@ -72,6 +72,12 @@ pub fn orient3d_in_range(a: &P3, b: &P3, c_: &P3, d: &P3) -> i32 {
 
 #[cold]
 fn orient3d_exact(a: &P3, b: &P3, c_: &P3, d: &P3) -> i32 {
+    // Four points with one coordinate equal lie in an axis plane: coplanar, exactly. The
+    // common degenerate case of architectural models (a floor's or a wall's points), where
+    // the filter cannot decide and the wide integers would.
+    if (0..3).any(|k| a[k] == b[k] && a[k] == c_[k] && a[k] == d[k]) {
+        return 0;
+    }
     if let Some(s) = lattice::orient3d(a, b, c_, d) {
         return s;
     }
@@ -510,6 +516,38 @@ mod tests {
     const X: P3 = [1.0, 0.0, 0.0];
     const Y: P3 = [0.0, 1.0, 0.0];
     const Z: P3 = [0.0, 0.0, 1.0];
+
+    /// Four points on an axis plane are coplanar: the shortcut's answer is the wide
+    /// integers' (over magnitudes from 1e-300 to 1e300, on each axis), and a point just
+    /// off the plane still gets its sign from the exact stages.
+    #[test]
+    fn points_on_an_axis_plane_are_coplanar_as_the_exact_stage_says() {
+        let mut r = crate::base::rng::SplitMix64(77);
+        let mut f = |scale: f64| ((r.next_u64() >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * scale;
+        for scale in [1e-300, 1e-20, 1.0, 3.0e7, 1e20, 1e300] {
+            for k in 0..3 {
+                for _ in 0..50 {
+                    let plane = f(scale);
+                    let mut p = [[0.0; 3]; 4];
+                    for q in &mut p {
+                        *q = [f(scale), f(scale), f(scale)];
+                        q[k] = plane;
+                    }
+                    let [a, b, c, d] = p;
+                    assert_eq!(orient3d(&a, &b, &c, &d), 0);
+                    assert_eq!(
+                        wide::orient3d(&a, &b, &c, &d).or_else(|| wide::orient3d_any(&a, &b, &c, &d)),
+                        Some(0)
+                    );
+                    // Off the plane by one ulp: the same sign as the exact stages give.
+                    let mut e = d;
+                    e[k] = f64::from_bits(plane.to_bits() + 1);
+                    let want = wide::orient3d(&a, &b, &c, &e).or_else(|| wide::orient3d_any(&a, &b, &c, &e));
+                    assert_eq!(Some(orient3d(&a, &b, &c, &e)), want);
+                }
+            }
+        }
+    }
 
     #[test]
     fn orientation_convention() {
