@@ -353,7 +353,7 @@ pub fn summarize(results: &[CaseResult]) -> Vec<SummaryRow> {
     }
     let mut rows = Vec::new();
     for c in configs {
-        for half in [Half::Tune, Half::Report] {
+        for half in [Half::Tune, Half::Report, Half::Holdout] {
             for fam in Family::ALL {
                 let rs: Vec<&CaseResult> = results
                     .iter()
@@ -505,6 +505,7 @@ pub fn time_vs_error_points(results: &[CaseResult]) -> Vec<crate::output::Scatte
             series: match r.half {
                 Half::Tune => 0,
                 Half::Report => 1,
+                Half::Holdout => 2,
             },
             x: r.seconds_median.max(1e-3),
             y: 1.0 - r.rooms_isolated as f64 / r.rooms.max(1) as f64,
@@ -530,7 +531,7 @@ pub fn write_all(results: &[CaseResult], dir: &std::path::Path) -> Result<()> {
                 "median pipeline seconds per model (load + complex + decimation)",
                 "share of rooms not isolated",
             ),
-            &["tune half", "report half"],
+            &["tune half", "report half", "holdout seeds"],
         )
         .map_err(|e| SuiteError::Write(std::io::Error::other(e.to_string())))?;
     }
