@@ -157,6 +157,26 @@ fn auto_sealing_never_seals_a_real_hole() {
     assert_eq!(auto.cx.stats.active_cells, open.cx.stats.active_cells);
 }
 
+/// A generated building that is not closed (a held-out seed), under vertex noise of 1e-3
+/// of its diagonal: its rooms reach the outside through gaps of about 4 cm, far wider than
+/// the sliver width. The auto pass cannot split that region (rooms and outside are one
+/// component, seeing as many walls' backs as fronts); it removed it whole as exterior, and
+/// `run` reported no cells and blamed the faces' winding. It now stays a leak, reported as
+/// without sealing (the same cells as with sealing off).
+#[test]
+fn auto_sealing_keeps_a_region_it_cannot_split_as_a_leak() {
+    use portalfind::suite::stress::{Variant, apply};
+    let c = portalfind::suite::case(portalfind::suite::Family::Greedy, 11).expect("case");
+    let (vs, ps) = apply(Variant::Noise(1e-3), &c.model.vertices, &c.model.polygons);
+    let m = from_soup(&c.name, vs, ps).expect("model");
+    let open = cells(&m, Subdivision::Delaunay, None);
+    let auto = cells(&m, Subdivision::Delaunay, Some(SealSize::Auto));
+    assert!(!open.cx.leaks.is_empty(), "the noisy building leaks");
+    assert!(auto.cx.stats.active_cells > 0, "the leaking region was removed whole");
+    assert_eq!(auto.cx.stats.active_cells, open.cx.stats.active_cells);
+    assert_eq!(auto.cx.leaks.len(), open.cx.leaks.len());
+}
+
 #[test]
 fn auto_sealing_closes_the_cracks_of_a_closed_cavern() {
     // Tune-half cavern 4 (closed, conforming marching tetrahedra): its complex leaks
