@@ -137,22 +137,37 @@ impl Hull3 {
     /// Inserts every point of `other` (the hull of the union); returns whether this hull
     /// changed. When it did not, `self` is untouched.
     pub fn insert_all(&mut self, other: &Hull3) -> bool {
-        if self.is_flat() || other.is_flat() {
-            let mut all = self.pts.clone();
-            all.extend_from_slice(&other.pts);
-            let h = Hull3::new(&all);
-            let changed = !same_set(&h.pts, &self.pts);
-            if changed {
-                *self = h;
-            }
-            return changed;
+        if other.is_flat() {
+            return self.rebuild_with(&other.pts);
+        }
+        self.insert_points(&other.pts)
+    }
+
+    /// Inserts `points` (the hull of the union); returns whether this hull changed. When
+    /// it did not, `self` is untouched.
+    pub fn insert_points(&mut self, points: &[P3]) -> bool {
+        if self.is_flat() {
+            return self.rebuild_with(points);
         }
         let mut changed = false;
-        for p in &other.pts {
+        for p in points {
             changed |= self.insert(p);
         }
         if changed {
             self.compact();
+        }
+        changed
+    }
+
+    /// The hull of this one's points and `points`, built anew (a flat hull has no faces to
+    /// insert into).
+    fn rebuild_with(&mut self, points: &[P3]) -> bool {
+        let mut all = self.pts.clone();
+        all.extend_from_slice(points);
+        let h = Hull3::new(&all);
+        let changed = !same_set(&h.pts, &self.pts);
+        if changed {
+            *self = h;
         }
         changed
     }
@@ -267,6 +282,33 @@ mod tests {
         assert!((h.volume() - 1.0).abs() < 1e-12, "{}", h.volume());
         assert!(h.pts.len() >= 8 && h.pts.len() <= 11, "{}", h.pts.len());
         assert_eq!(h.num_faces(), 2 * h.pts.len() - 4);
+    }
+
+    /// A hull with more points inserted is the hull of the union: it contains every point,
+    /// its volume is the one built at once, and a flat hull (a floor's points) grows into a
+    /// solid one; inserting points already inside changes nothing.
+    #[test]
+    fn inserting_points_gives_the_hull_of_the_union() {
+        let mut r = SplitMix64(29);
+        for round in 0..20 {
+            let flat = round % 4 == 0;
+            let a: Vec<P3> = (0..50)
+                .map(|_| [r.unit(), r.unit(), if flat { 0.0 } else { r.unit() }])
+                .collect();
+            let b: Vec<P3> = (0..80).map(|_| [r.unit() * 1.5, r.unit(), r.unit() * 2.0]).collect();
+            let mut h = Hull3::new(&a);
+            assert!(h.insert_points(&b));
+            let all: Vec<P3> = a.iter().chain(&b).copied().collect();
+            let whole = Hull3::new(&all);
+            assert!(h.contains_all(&all));
+            assert!(
+                (h.volume() - whole.volume()).abs() <= 1e-12 * whole.volume(),
+                "round {round}"
+            );
+            let before = h.clone();
+            assert!(!h.insert_points(&a));
+            assert_eq!(h.pts, before.pts);
+        }
     }
 
     #[test]
