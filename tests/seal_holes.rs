@@ -161,8 +161,9 @@ fn auto_sealing_never_seals_a_real_hole() {
 /// of its diagonal: its rooms reach the outside through gaps of about 4 cm, far wider than
 /// the sliver width. The auto pass cannot split that region (rooms and outside are one
 /// component, seeing as many walls' backs as fronts); it removed it whole as exterior, and
-/// `run` reported no cells and blamed the faces' winding. It now stays a leak, reported as
-/// without sealing (the same cells as with sealing off).
+/// `run` reported no cells and blamed the faces' winding. When the pass keeps no region at
+/// all it is undone: the leak is reported as without sealing (the same cells as with
+/// sealing off).
 #[test]
 fn auto_sealing_keeps_a_region_it_cannot_split_as_a_leak() {
     use portalfind::suite::stress::{Variant, apply};

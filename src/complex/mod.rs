@@ -61,7 +61,7 @@ mod validate;
 
 pub(crate) use build::{polygon_supports, project};
 
-pub use seal::{FRAGMENT_SHARE, FRONT_SHARE, SealedOpening};
+pub use seal::{FRONT_SHARE, SealedOpening};
 pub use validate::{ComplexError, ComplexValidation};
 
 use std::borrow::Cow;

@@ -341,8 +341,6 @@ impl Sealer {
             comps.push(sub);
         }
         let (mut kept_front, mut removed_front) = (0.0, 0.0);
-        // Whether a component to remove sees more than fragments of walls' fronts.
-        let mut removed_rooms = false;
         let kept: Vec<bool> = comps
             .iter()
             .map(|cs| {
@@ -355,17 +353,14 @@ impl Sealer {
                     kept_front += front;
                 } else {
                     removed_front += front;
-                    removed_rooms |= front > FRAGMENT_SHARE * (front + back);
                 }
                 keep
             })
             .collect();
         // With a size given, the fronts seen from removed components must be fragments
         // (seen through cracks): a room joined to the outside by an opening wider than
-        // the size must not go with the outside. With no size, a component to remove
-        // that sees more than fragments of fronts ([`FRAGMENT_SHARE`]) holds rooms joined
-        // to the outside by an opening wider than a crack: the region stays a leak.
-        if (fragments_only && removed_front >= kept_front) || (!fragments_only && removed_rooms) {
+        // the size must not go with the outside.
+        if fragments_only && removed_front >= kept_front {
             return None;
         }
         // Hull openings of kept components: a wide one is a real leak, narrow ones are
@@ -502,15 +497,6 @@ fn group(raw: Vec<Raw>, size: f64) -> Vec<SealedOpening> {
     out
 }
 
-/// [`CellComplex::seal_cracks_auto`]: a component to remove (most of the occluder area it
-/// touches faces away from it) that sees more than this share of fronts holds rooms, not
-/// fragments of fronts seen through cracks, so the region stays a leak. Measured: the
-/// outside of the noisy caverns in `tests/seal_holes.rs` sees fronts over about 1e-6 of
-/// its occluder area, while a noisy open building whose rooms reach the outside through
-/// 4 cm gaps is one component seeing 912 of fronts and 913 of backs (single walls: each is
-/// seen from both sides). Removed whole, that region left `run` with no cells.
-pub const FRAGMENT_SHARE: f64 = 0.1;
-
 /// [`CellComplex::seal_cracks_auto`]: a component of a leaking region is kept when more
 /// than this share of the occluder area its cells touch faces it (a room sees the walls'
 /// fronts, the other side of a wall their backs; a crack does not change that).
@@ -533,7 +519,30 @@ impl CellComplex {
             return Vec::new();
         }
         let sealer = Sealer::with_split(model, self.tol.sliver_width(), true);
-        self.reseal(sealer, "sealing cracks (auto)")
+        let sealed = self.reseal(sealer, "sealing cracks (auto)");
+        if self.stats.interior_regions == 0 {
+            // The pass kept no region at all: the leaking regions' components each saw
+            // as much of walls' backs as of fronts, so it could not tell rooms from the
+            // outside (a noisy open building whose rooms reach the outside through 4 cm
+            // gaps: single walls, each seen from both sides). Removing them all left `run`
+            // with no cells and a warning about the faces' winding; the leaks are
+            // reported as without sealing instead.
+            let t0 = Instant::now();
+            for c in &mut self.cells {
+                c.exterior = false;
+            }
+            self.build_graph();
+            self.stats.exterior_regions = 0;
+            self.stats.interior_regions = 0;
+            self.remove_exterior_with(None);
+            self.stats.openings_sealed = 0;
+            self.stats.timings.push((
+                "sealing cracks (auto): undone, nothing kept".into(),
+                t0.elapsed().as_secs_f64(),
+            ));
+            return Vec::new();
+        }
+        sealed
     }
 
     /// Stage 6 again from a clean graph with `sealer` closing the openings it judges
