@@ -711,9 +711,10 @@ struct Comp {
     links: Links,
     /// The complex cells in the component (kept only when the aperture is needed).
     members: Members,
-    /// The 3D convex hull of the members' vertices, built when first needed.
+    /// The 3D convex hull of the members' vertices, built when first needed, with the
+    /// cells absorbed since whose vertices it does not hold yet ([`LazyHull`]).
     /// (Boxed: most components never need one, and `Comp` is allocated for every cell.)
-    hull: Option<Box<Hull3>>,
+    hull: Option<Box<LazyHull>>,
     /// The group of a constrained run ([`run_inner`]'s `labels`; 0 without).
     label: u32,
 }
@@ -1449,27 +1450,34 @@ fn shadow(cx: &CellComplex, portals: &[u32], frame: &Frame) -> f64 {
     if a.is_finite() { a.max(0.0) } else { 0.0 }
 }
 
-/// The hull of two merged components, each given as (its hull if computed, its members):
-/// both hulls merged, or the one hull with the other side's cells' vertices inserted, or
-/// none when neither was computed. A computed hull is never dropped: a large component
+/// A component's hull and the member cells whose vertices it does not hold yet: a merge
+/// with a component that has no hull only records the other side's cells, and the next
+/// [`section`] inserts their vertices. A computed hull is never dropped: a large component
 /// absorbing a piece whose hull was never needed used to lose its own, and the next
 /// [`section`] rebuilt it from every member's vertices, so a big hall merging thousands of
 /// small pieces between gated pops was quadratic (a 20×20 m low room of 2,892 polygons:
-/// 24 s of collapses, 81% in `Hull3::new`). The hull of the union either way (the same
-/// extreme points; [`Hull3`] keeps coplanar extras, which change no projection).
-fn merged_hull(
-    cx: &CellComplex,
-    a: (Option<Box<Hull3>>, &[u32]),
-    b: (Option<Box<Hull3>>, &[u32]),
-) -> Option<Box<Hull3>> {
-    let vertices = |ms: &[u32]| -> Vec<[f64; 3]> { ms.iter().flat_map(|&m| cx.cells[m as usize].vertices()).collect() };
+/// 24 s of collapses, 81% in `Hull3::new`); inserting at the merge instead cost the 1M
+/// building's collapses about 10% (components that are never gated again).
+#[derive(Clone, Debug, Default)]
+struct LazyHull {
+    hull: Hull3,
+    pending: Vec<u32>,
+}
+
+/// The hull of two merged components, each given as (its hull if computed, its members):
+/// both hulls merged (the other's pending cells carried over), or the one hull with the
+/// other side's cells pending, or none when neither was computed. The hull of the union
+/// either way once flushed (the same extreme points; [`Hull3`] keeps coplanar extras,
+/// which change no projection).
+fn merged_hull(a: (Option<Box<LazyHull>>, &[u32]), b: (Option<Box<LazyHull>>, &[u32])) -> Option<Box<LazyHull>> {
     match (a, b) {
         ((Some(mut x), _), (Some(y), _)) => {
-            x.insert_all(&y);
+            x.hull.insert_all(&y.hull);
+            x.pending.extend_from_slice(&y.pending);
             Some(x)
         }
         ((Some(mut x), _), (None, ms)) | ((None, ms), (Some(mut x), _)) => {
-            x.insert_points(&vertices(ms));
+            x.pending.extend_from_slice(ms);
             Some(x)
         }
         _ => None,
@@ -1478,14 +1486,18 @@ fn merged_hull(
 
 /// The projected area of a component on `frame` (2D convex hull of its 3D hull).
 fn section(cx: &CellComplex, c: &mut Comp, frame: &Frame) -> f64 {
-    let hull = c.hull.get_or_insert_with(|| {
-        let pts: Vec<[f64; 3]> = c
-            .members
-            .iter()
-            .flat_map(|&m| cx.cells[m as usize].vertices())
-            .collect();
-        Box::new(Hull3::new(&pts))
+    let vertices = |ms: &[u32]| -> Vec<[f64; 3]> { ms.iter().flat_map(|&m| cx.cells[m as usize].vertices()).collect() };
+    let lazy = c.hull.get_or_insert_with(|| {
+        Box::new(LazyHull {
+            hull: Hull3::new(&vertices(&c.members)),
+            pending: Vec::new(),
+        })
     });
+    if !lazy.pending.is_empty() {
+        let pending = std::mem::take(&mut lazy.pending);
+        lazy.hull.insert_points(&vertices(&pending));
+    }
+    let hull = &lazy.hull;
     let a = polygon_area(&hull2(hull.pts.iter().map(|p| frame.project(p)).collect::<Vec<P2>>()));
     if a.is_finite() { a.max(0.0) } else { 0.0 }
 }
@@ -2218,7 +2230,7 @@ fn merge<I: Ids>(
             owner[b] = a as u32;
         }
         if sections {
-            ca.hull = merged_hull(cx, (ca.hull.take(), &ca.members), (cb.hull.take(), &cb.members));
+            ca.hull = merged_hull((ca.hull.take(), &ca.members), (cb.hull.take(), &cb.members));
             if ca.members.len() < cb.members.len() {
                 std::mem::swap(&mut ca.members, &mut cb.members);
             }
@@ -2629,7 +2641,7 @@ fn clean_up(
         ca.peak = ca.peak.max(cb.peak);
         ca.volume += cb.volume;
         ca.pieces += cb.pieces;
-        ca.hull = merged_hull(cx, (ca.hull.take(), &ca.members), (cb.hull.take(), &cb.members));
+        ca.hull = merged_hull((ca.hull.take(), &ca.members), (cb.hull.take(), &cb.members));
         if ca.members.len() < cb.members.len() {
             std::mem::swap(&mut ca.members, &mut cb.members);
         }
