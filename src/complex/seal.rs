@@ -519,7 +519,7 @@ impl CellComplex {
             return Vec::new();
         }
         let sealer = Sealer::with_split(model, self.tol.sliver_width(), true);
-        let sealed = self.reseal(sealer, "sealing cracks (auto)");
+        let sealed = self.reseal(Some(sealer), "sealing cracks (auto)");
         if self.stats.interior_regions == 0 {
             // The pass kept no region at all: the leaking regions' components each saw
             // as much of walls' backs as of fronts, so it could not tell rooms from the
@@ -527,27 +527,16 @@ impl CellComplex {
             // gaps: single walls, each seen from both sides). Removing them all left `run`
             // with no cells and a warning about the faces' winding; the leaks are
             // reported as without sealing instead.
-            let t0 = Instant::now();
-            for c in &mut self.cells {
-                c.exterior = false;
-            }
-            self.build_graph();
-            self.stats.exterior_regions = 0;
-            self.stats.interior_regions = 0;
-            self.remove_exterior_with(None);
-            self.stats.openings_sealed = 0;
-            self.stats.timings.push((
-                "sealing cracks (auto): undone, nothing kept".into(),
-                t0.elapsed().as_secs_f64(),
-            ));
+            self.reseal(None, "sealing cracks (auto): undone, nothing kept");
             return Vec::new();
         }
         sealed
     }
 
     /// Stage 6 again from a clean graph with `sealer` closing the openings it judges
-    /// narrow; counts and times the sealed openings under `stage`.
-    fn reseal(&mut self, mut sealer: Sealer, stage: &str) -> Vec<SealedOpening> {
+    /// narrow (`None`: none, the plain exterior removal); counts and times the sealed
+    /// openings under `stage`.
+    fn reseal(&mut self, mut sealer: Option<Sealer>, stage: &str) -> Vec<SealedOpening> {
         let t0 = Instant::now();
         for c in &mut self.cells {
             c.exterior = false;
@@ -555,7 +544,7 @@ impl CellComplex {
         self.build_graph();
         self.stats.exterior_regions = 0;
         self.stats.interior_regions = 0;
-        let sealed = self.remove_exterior_with(Some(&mut sealer));
+        let sealed = self.remove_exterior_with(sealer.as_mut());
         self.stats.openings_sealed = sealed.len();
         self.stats.timings.push((stage.into(), t0.elapsed().as_secs_f64()));
         sealed
@@ -570,6 +559,6 @@ impl CellComplex {
         if self.leaks.is_empty() || size.is_nan() || size <= 0.0 {
             return Vec::new();
         }
-        self.reseal(Sealer::new(model, size), "sealing holes")
+        self.reseal(Some(Sealer::new(model, size)), "sealing holes")
     }
 }

@@ -1484,6 +1484,18 @@ fn merged_hull(a: (Option<Box<LazyHull>>, &[u32]), b: (Option<Box<LazyHull>>, &[
     }
 }
 
+impl Comp {
+    /// Takes `o`'s members (the longer list keeps its allocation) and its hull
+    /// ([`merged_hull`]).
+    fn absorb_members(&mut self, o: &mut Comp) {
+        self.hull = merged_hull((self.hull.take(), &self.members), (o.hull.take(), &o.members));
+        if self.members.len() < o.members.len() {
+            std::mem::swap(&mut self.members, &mut o.members);
+        }
+        self.members.append(&mut o.members);
+    }
+}
+
 /// The projected area of a component on `frame` (2D convex hull of its 3D hull).
 fn section(cx: &CellComplex, c: &mut Comp, frame: &Frame) -> f64 {
     let vertices = |ms: &[u32]| -> Vec<[f64; 3]> { ms.iter().flat_map(|&m| cx.cells[m as usize].vertices()).collect() };
@@ -2230,11 +2242,7 @@ fn merge<I: Ids>(
             owner[b] = a as u32;
         }
         if sections {
-            ca.hull = merged_hull((ca.hull.take(), &ca.members), (cb.hull.take(), &cb.members));
-            if ca.members.len() < cb.members.len() {
-                std::mem::swap(&mut ca.members, &mut cb.members);
-            }
-            ca.members.append(&mut cb.members);
+            ca.absorb_members(&mut cb);
         }
         if let Some(ev) = events.as_deref_mut() {
             ev.push(Event {
@@ -2641,11 +2649,7 @@ fn clean_up(
         ca.peak = ca.peak.max(cb.peak);
         ca.volume += cb.volume;
         ca.pieces += cb.pieces;
-        ca.hull = merged_hull((ca.hull.take(), &ca.members), (cb.hull.take(), &cb.members));
-        if ca.members.len() < cb.members.len() {
-            std::mem::swap(&mut ca.members, &mut cb.members);
-        }
-        ca.members.append(&mut cb.members);
+        ca.absorb_members(&mut cb);
         comps[a as usize] = ca;
         *cells -= 1;
         steps.push(Step {
