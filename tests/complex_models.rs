@@ -564,3 +564,34 @@ fn zero_volume_fold_in_a_sliver_is_cancelled() {
 fn t_vertex_next_to_a_chord_end_goes_to_its_side() {
     noisy_variant_is_valid_at_level_0(portalfind::suite::Family::Greedy, 2, "greedy-2-greedy", 1e-5);
 }
+
+/// A 10 m cube with `k` two-sided 6 × 6 plates stacked 1e-6 apart at mid-height: each gap
+/// between plates is a membrane (thinner than the sliver width) that the portal graph
+/// crosses to join the room below the stack with the room above it.
+fn plate_stack(k: usize) -> Soup {
+    let mut s = Soup::default();
+    s.boxed([0.0, 0.0, 0.0], [10.0, 10.0, 10.0], true);
+    for i in 0..k {
+        let z = 5.0 + i as f64 * 1e-6;
+        s.rect(2, z, (2.0, 8.0), (2.0, 8.0), true);
+        s.rect(2, z, (2.0, 8.0), (2.0, 8.0), false);
+    }
+    s
+}
+
+#[test]
+fn a_tall_stack_of_membranes_keeps_the_room_in_one_piece() {
+    // The walk through stacked membranes was cut after 9 of them: 40 plates split the
+    // room into two regions with no portal between them (the probe of session 28).
+    for k in [1, 40] {
+        let (_, cx) = build(&plate_stack(k));
+        assert_eq!(cx.stats.interior_regions, 1, "{k} plates");
+        assert_eq!(cx.stats.leaks, 0, "{k} plates");
+        // The stack itself (36 m² × 39 µm) and the membranes beside it are not room.
+        assert!(
+            (active_volume(&cx) - 1000.0).abs() < 1e-2,
+            "{k} plates: {}",
+            active_volume(&cx)
+        );
+    }
+}

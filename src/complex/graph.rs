@@ -337,6 +337,7 @@ impl CellComplex {
     /// reach the hull this way, with a point there.
     fn through_flat(&self, membrane: &[bool]) -> (Vec<Link>, Vec<(CellId, [f64; 3])>) {
         let (mut links, mut hull) = (Vec::new(), Vec::new());
+        let max_depth = membrane.iter().filter(|&&m| m).count() + 1;
         for (f, cell) in self.alive_cells().filter(|(c, _)| membrane[c.idx()]) {
             let Some(n) = cell
                 .faces()
@@ -352,7 +353,7 @@ impl CellComplex {
                     continue;
                 }
                 let (open, _, _) = self.open_pieces(PatchId(t));
-                self.rise(membrane, f, n, &open, x, 0, &mut links, &mut hull);
+                self.rise(membrane, f, n, &open, x, max_depth, &mut links, &mut hull);
             }
         }
         (links, hull)
@@ -375,7 +376,13 @@ impl CellComplex {
     }
 
     /// Carries `region` (open pieces on the lower side of flat cell `f`, reached from cell
-    /// `from` below) up through `f` to the cells above it.
+    /// `from` below) up through `f` to the cells above it, and on through stacks of
+    /// membranes of any height (a stack of thin plates is one membrane per gap). A
+    /// depth-first walk on an explicit stack, visiting faces in the order a recursion
+    /// would: a stack of thousands of membranes must neither overflow the thread's stack
+    /// nor be cut short (cutting it splits the room above from the room below). A walk
+    /// longer than the number of membranes repeats a cell (membranes can overlap
+    /// cyclically in depth, like three mutually overlapping triangles), so it stops there.
     #[allow(clippy::too_many_arguments)]
     fn rise(
         &self,
@@ -384,15 +391,24 @@ impl CellComplex {
         n: [f64; 3],
         region: &[ConvexPolygon],
         from: CellId,
-        depth: usize,
+        max_depth: usize,
         links: &mut Vec<Link>,
         hull: &mut Vec<(CellId, [f64; 3])>,
     ) {
-        for (t, _) in self.flat_faces(f, n, true) {
+        // Frames: (membrane, region reaching it, its faces up, next face to visit).
+        let mut stack = vec![(f, region.to_vec(), self.flat_faces(f, n, true), 0usize)];
+        while let Some(top) = stack.last_mut() {
+            let (f, _, faces, next) = top;
+            let Some(&(t, _)) = faces.get(*next) else {
+                stack.pop();
+                continue;
+            };
+            *next += 1;
+            let f = *f;
             let z = self.across(PatchId(t), f);
             let (open, _, _) = self.open_pieces(PatchId(t));
             let mut pieces = Vec::new();
-            for a in region {
+            for a in &top.1 {
                 for b in &open {
                     if let Some(o) = a.intersect_coplanar(b, &self.tol)
                         && !is_sliver(&o, &self.tol)
@@ -411,8 +427,9 @@ impl CellComplex {
                 continue;
             }
             if z != HULL && membrane[z.idx()] {
-                if depth < 8 {
-                    self.rise(membrane, z, n, &pieces, from, depth + 1, links, hull);
+                if stack.len() < max_depth {
+                    let up = self.flat_faces(z, n, true);
+                    stack.push((z, pieces, up, 0));
                 }
             } else if z == HULL {
                 if from != HULL {
