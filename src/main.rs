@@ -1222,6 +1222,11 @@ fn complex(
     } else if cx.stats.active_cells == 0 {
         report_leaks_and_orientation(&cx, &m, None);
     }
+    if cx.stats.active_cells > 0
+        && let Some(w) = cx.thin_loss_warning()
+    {
+        eprintln!("{w}");
+    }
     if validate {
         let t1 = Instant::now();
         eprintln!(
@@ -1855,6 +1860,9 @@ fn report_leaks_and_orientation(
                  if this model's faces point outwards, reverse their winding"
             );
         }
+    }
+    if let Some(w) = cx.thin_loss_warning() {
+        eprintln!("{w}");
     }
 }
 

@@ -591,6 +591,12 @@ impl CellComplex {
                     self.cells[c.idx()].exterior = true;
                 }
                 removed += members.len();
+                for &c in members {
+                    if (self.cells[c.idx()].flat || self.is_thin(c)) && self.faces_any_front(c) {
+                        self.stats.thin_removed_cells += 1;
+                        self.stats.thin_removed_volume += self.cells[c.idx()].volume();
+                    }
+                }
                 continue;
             }
             if !members.iter().any(|c| hull_open.contains_key(c)) {

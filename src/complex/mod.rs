@@ -517,6 +517,14 @@ fn is_zero(x: &u32) -> bool {
     *x == 0
 }
 
+fn is_zero_usize(x: &usize) -> bool {
+    *x == 0
+}
+
+fn is_zero_f64(x: &f64) -> bool {
+    *x == 0.0
+}
+
 /// Counts and timings in the thesis's terms.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct ComplexStats {
@@ -563,6 +571,20 @@ pub struct ComplexStats {
     pub sliver_area: f64,
     /// Regions removed as exterior.
     pub exterior_regions: usize,
+    /// Cells removed as exterior that face a polygon's front but are thinner than
+    /// [`crate::Tolerances::sliver_width`] (or flat), so they count as facing nothing
+    /// ([`CellComplex::faces_occluder`]) and, having no portals of their own when they are
+    /// membranes, make regions of their own. Normally a few wedges between nearly
+    /// coincident copies of a wall (a tiny volume); a large volume means the model has
+    /// detail below the sliver width (e.g. a floor of triangles narrower than it, whose
+    /// vertices make every tetrahedron above it a sliver) and its rooms lost that volume.
+    /// Not serialized when 0.
+    #[serde(skip_serializing_if = "is_zero_usize")]
+    pub thin_removed_cells: usize,
+    /// Their volume (model units³). `run` and `complex` warn when it exceeds 1% of the
+    /// volume kept ([`CellComplex::thin_loss_warning`]). Not serialized when 0.
+    #[serde(skip_serializing_if = "is_zero_f64")]
+    pub thin_removed_volume: f64,
     /// Regions kept.
     pub interior_regions: usize,
     /// Leaks found.
@@ -817,6 +839,47 @@ impl CellComplex {
     /// occluder on the cell's patches turns its back side to the cell (same crack rules).
     pub fn faces_occluder_back(&self, c: CellId) -> bool {
         self.faced_by(c, false)
+    }
+
+    /// The warning for volume lost to the sliver rules
+    /// ([`ComplexStats::thin_removed_volume`] above 1% of the volume kept), or `None`.
+    /// The volume kept is only summed when the removed volume is not negligible against
+    /// the hull's, so a normal model pays nothing.
+    pub fn thin_loss_warning(&self) -> Option<String> {
+        let lost = self.stats.thin_removed_volume;
+        if !(lost > 1e-4 * self.hull_volume) {
+            return None;
+        }
+        let kept: f64 = self.active_cells().map(|(_, c)| c.volume()).sum();
+        if lost <= 0.01 * kept {
+            return None;
+        }
+        let w = self.tol.sliver_width();
+        let share = if kept > 0.0 {
+            format!("{:.1}% of the {kept:.4e} kept", 100.0 * lost / kept)
+        } else {
+            "nothing else was kept".to_string()
+        };
+        Some(format!(
+            "warning: {} cells of volume {lost:.4e} ({share}) face polygons but were removed \
+             as exterior because each is thinner than the sliver width {w:.3e} (1e-5 of the bounding-box \
+             diagonal): the model has detail below that width (e.g. polygons or vertex spacings narrower \
+             than it), so the rooms there lost that volume. \
+             Merge or remesh the thin polygons (e.g. Blender's Decimate > Planar or Limited Dissolve)",
+            self.stats.thin_removed_cells,
+        ))
+    }
+
+    /// Whether some occluder's front faces the cell, sliver occluders and thin or flat
+    /// cells included: what [`CellComplex::faces_occluder`] would say without its sliver
+    /// rules (see [`ComplexStats::thin_removed_cells`]).
+    pub fn faces_any_front(&self, c: CellId) -> bool {
+        let cell = &self.cells[c.idx()];
+        cell.tags().iter().any(|&t| {
+            let p = &self.patches[t as usize];
+            let side = if p.cells[0] == c { 0 } else { 1 };
+            p.occluders.iter().any(|o| o.faces == side)
+        })
     }
 
     /// Whether an occluder's front (`front`) or back side faces the cell, in the sense of

@@ -273,6 +273,10 @@ pub struct Row {
     pub tolerance_level: u32,
     /// Interior regions.
     pub regions: usize,
+    /// The share of the kept volume that cells thinner than the sliver width lost
+    /// ([`crate::complex::ComplexStats::thin_removed_volume`] over the active cells'
+    /// volume); `run` warns above 1% ([`crate::complex::CellComplex::thin_loss_warning`]).
+    pub thin_lost: f64,
     /// Active cells.
     pub active_cells: usize,
     /// Final portals after `run`'s default decimation (aperture at its own stop).
@@ -335,6 +339,7 @@ pub fn run_case(c: &SuiteCase, variants: &[Variant], progress: &mut dyn FnMut(&s
             leaks_sealed_4gap: None,
             tolerance_level: 0,
             regions: 0,
+            thin_lost: 0.0,
             active_cells: 0,
             final_portals: 0,
             rooms_isolated: 0,
@@ -378,6 +383,10 @@ pub fn run_case(c: &SuiteCase, variants: &[Variant], progress: &mut dyn FnMut(&s
                 row.tolerance_level = cx.stats.tolerance_level;
                 row.regions = cx.stats.interior_regions;
                 row.active_cells = cx.stats.active_cells;
+                if cx.stats.thin_removed_volume > 0.0 {
+                    let kept: f64 = cx.active_cells().map(|(_, c)| c.volume()).sum();
+                    row.thin_lost = cx.stats.thin_removed_volume / kept;
+                }
                 if row.leaks > 0 && gap > 0.0 {
                     let mut sealed = cx.clone();
                     sealed.seal_holes(&m, SEAL_GAPS * gap);
@@ -447,9 +456,12 @@ pub fn headline(rows: &[Row]) -> String {
     let sealed = rows.iter().filter(|r| r.leaks_sealed_4gap == Some(0)).count();
     let moved = rows.iter().filter(|r| !r.same_rooms).count();
     let fallback = rows.iter().filter(|r| r.tolerance_level > 0).count();
+    let thin = rows.iter().filter(|r| r.thin_lost > 0.01).count();
+    let thin_max = rows.iter().map(|r| r.thin_lost).fold(0.0, f64::max);
     format!(
-        "{} variants: {invalid} fail validation ({fallback} valid only at a fallback tolerance level), {leaky} leak ({leaky_closed} with a closed input; {sealed} sealed by --seal-holes 4 x widest gap), {moved} isolate other rooms than the unmoved model",
-        rows.len()
+        "{} variants: {invalid} fail validation ({fallback} valid only at a fallback tolerance level), {leaky} leak ({leaky_closed} with a closed input; {sealed} sealed by --seal-holes 4 x widest gap), {moved} isolate other rooms than the unmoved model, {thin} lose over 1% of the kept volume to sliver cells (most: {:.2e})",
+        rows.len(),
+        thin_max
     )
 }
 
