@@ -1748,17 +1748,26 @@ fn print_evaluation(o: &portalfind::evaluate::Output, dir: &std::path::Path) -> 
 
 /// One line per hole sealed by `--seal-holes`.
 fn print_sealed(sealed: &[portalfind::complex::SealedOpening], m: &portalfind::model::Model) {
+    // Cracks are often far below 1e-4 model units: print those in scientific notation
+    // rather than as "0.0000".
+    let small = |v: f64| {
+        if v != 0.0 && v.abs() < 1e-3 {
+            format!("{v:.3e}")
+        } else {
+            format!("{v:.4}")
+        }
+    };
     for (i, o) in sealed.iter().enumerate() {
         let point = m.to_user(o.point);
         println!(
-            "sealed opening {i}: width {:.4} at ({:.3}, {:.3}, {:.3}); {} portal{}, area {:.4}, cell {} kept, {} removed",
-            o.width,
+            "sealed opening {i}: width {} at ({:.3}, {:.3}, {:.3}); {} portal{}, area {}, cell {} kept, {} removed",
+            small(o.width),
             point[0],
             point[1],
             point[2],
             o.portals,
             if o.portals == 1 { "" } else { "s" },
-            o.area,
+            small(o.area),
             o.inside,
             if o.outside == portalfind::complex::HULL {
                 "the outside of the hull".to_string()

@@ -633,7 +633,11 @@ fn volume_lost_to_the_sliver_rules_is_reported() {
     let (_, cx) = build(&sliver_floor_room(1000));
     let lost = cx.stats.thin_removed_volume;
     assert!(cx.stats.thin_removed_cells > 0);
-    assert!((active_volume(&cx) + lost - 3.0).abs() < 1e-6, "{} + {lost}", active_volume(&cx));
+    assert!(
+        (active_volume(&cx) + lost - 3.0).abs() < 1e-6,
+        "{} + {lost}",
+        active_volume(&cx)
+    );
     let w = cx.thin_loss_warning().expect("a warning");
     assert!(w.contains("thinner than the sliver width"), "{w}");
 }
