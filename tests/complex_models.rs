@@ -641,3 +641,44 @@ fn volume_lost_to_the_sliver_rules_is_reported() {
     let w = cx.thin_loss_warning().expect("a warning");
     assert!(w.contains("thinner than the sliver width"), "{w}");
 }
+
+/// A 20 × 20 × 3 room whose floor is one polygon with `per` vertices along each edge
+/// (straight angles everywhere but the four corners), each wall a strip of `4 * per`
+/// quads meeting it there; the ceiling one quad.
+fn straight_edged_floor(per: usize) -> Soup {
+    let mut s = Soup::default();
+    let sq = [[-10.0, -10.0], [10.0, -10.0], [10.0, 10.0], [-10.0, 10.0]];
+    let mut rim = Vec::new();
+    for e in 0..4 {
+        let (a, b) = (sq[e], sq[(e + 1) % 4]);
+        for i in 0..per {
+            let t = i as f64 / per as f64;
+            rim.push([a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t]);
+        }
+    }
+    let n = rim.len() as u32;
+    s.vertices.extend(rim.iter().map(|p| [p[0], p[1], 0.0]));
+    s.vertices.extend(rim.iter().map(|p| [p[0], p[1], 3.0]));
+    s.polygons.push((0..n).collect());
+    for i in 0..n {
+        let j = (i + 1) % n;
+        s.polygons.push(vec![i, n + i, n + j, j]);
+    }
+    s.rect(2, 3.0, (-10.0, 10.0), (-10.0, 10.0), false);
+    s
+}
+
+#[test]
+fn a_floor_with_thousands_of_straight_vertices_is_clipped_as_a_quad() {
+    // 4,000 vertices, 4 corners: kept as one polygon (only corners count against the
+    // ear-clipping limit) and placed as a quad; it took ~57 s at 10,000 vertices when
+    // it was ear-clipped into slivers, each visiting every cell around it.
+    let (m, cx) = build(&straight_edged_floor(1000));
+    assert_eq!(m.polygons.len(), 1 + 4000 + 1, "the floor is kept whole");
+    assert_eq!(m.polygons[0].verts.len(), 4000);
+    assert_eq!((0..4000).filter(|&k| m.is_corner(0, k)).count(), 4);
+    assert_eq!(cx.stats.interior_regions, 1);
+    assert_eq!(cx.stats.leaks, 0);
+    assert!((active_volume(&cx) - 1200.0).abs() < 1e-6, "{}", active_volume(&cx));
+    cx.check_no_crossing(&m).expect("no crossing");
+}

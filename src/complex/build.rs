@@ -381,8 +381,11 @@ impl CellComplex {
         };
         let start = canonical_start(model, pid);
         let n = poly.verts.len();
+        // The corners only (`Model::is_corner`): the same region, clipped in O(corners).
         let verts: Vec<[f64; 3]> = (0..n)
-            .map(|k| support.project(&model.vertices[poly.verts[(start + k) % n].idx()]))
+            .map(|k| (start + k) % n)
+            .filter(|&k| model.is_corner(pid.idx(), k))
+            .map(|k| support.project(&model.vertices[poly.verts[k].idx()]))
             .collect();
         let polygon = ConvexPolygon::new(verts.clone());
         let ids = support.ids;
@@ -679,7 +682,7 @@ impl CellComplex {
         let holes: Vec<(PolygonId, ConvexPolygon)> = ps
             .iter()
             .map(|&p| {
-                let verts: Vec<[f64; 3]> = canonical_cycle(model, p).iter().map(|v| support.project(v)).collect();
+                let verts: Vec<[f64; 3]> = corner_cycle(model, p).iter().map(|v| support.project(v)).collect();
                 (p, ConvexPolygon::new(verts))
             })
             .filter(|(_, q)| {
@@ -1692,6 +1695,18 @@ fn canonical_start(model: &Model, p: PolygonId) -> usize {
     (0..v.len())
         .min_by(|&a, &b| cmp_points(&model.vertices[v[a].idx()], &model.vertices[v[b].idx()]).then(a.cmp(&b)))
         .unwrap_or(0)
+}
+
+/// [`canonical_cycle`] without the straight-angle vertices ([`Model::is_corner`]): the
+/// same region, as the splitting clips it.
+fn corner_cycle(model: &Model, p: PolygonId) -> Vec<[f64; 3]> {
+    let v = &model.polygons[p.idx()].verts;
+    let s = canonical_start(model, p);
+    (0..v.len())
+        .map(|k| (s + k) % v.len())
+        .filter(|&k| model.is_corner(p.idx(), k))
+        .map(|k| model.vertices[v[k].idx()])
+        .collect()
 }
 
 /// Polygon `p`'s vertex coordinates in cyclic order from [`canonical_start`].

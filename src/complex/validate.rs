@@ -363,11 +363,15 @@ impl CellComplex {
             .polygons
             .iter()
             .zip(&planes)
-            .map(|(p, pl)| {
+            .enumerate()
+            .map(|(i, (p, pl))| {
+                // The corners only, like the splitting (`Model::is_corner`).
                 ConvexPolygon::new(
                     p.verts
                         .iter()
-                        .map(|v| super::build::project(pl, &model.vertices[v.idx()]))
+                        .enumerate()
+                        .filter(|&(k, _)| model.is_corner(i, k))
+                        .map(|(_, v)| super::build::project(pl, &model.vertices[v.idx()]))
                         .collect(),
                 )
             })

@@ -195,6 +195,25 @@ pub struct Model {
 }
 
 impl Model {
+    /// Whether vertex position `k` of polygon `p` is a *corner*: not exactly collinear
+    /// with its two neighbours ([`crate::predicates::collinear`]). A convex polygon kept
+    /// whole may have straight-angle vertices (typically where a T-junction was fixed, or
+    /// a floor whose edges carry every wall vertex); the region it bounds is that of its
+    /// corners alone, so the splitting and the crossing check clip the corners' polygon
+    /// (a floor with 10,000 vertices along four straight edges is a quad there, not a
+    /// 10,000-gon clipped against every cell it meets). In a convex polygon every
+    /// straight-angle vertex lies on the segment between two corners, so testing against
+    /// the immediate neighbours (straight or not) finds exactly those.
+    pub fn is_corner(&self, p: usize, k: usize) -> bool {
+        let v = &self.polygons[p].verts;
+        let n = v.len();
+        if n <= 3 {
+            return true;
+        }
+        let at = |i: usize| &self.vertices[v[i % n].idx()];
+        !crate::predicates::collinear(at(k + n - 1), at(k), at(k + 1))
+    }
+
     /// A point of the model's (possibly recentred) frame in the input's frame: `p + origin`
     /// (rounded to the input's precision there; exact for the vertices). The identity,
     /// bit for bit (signed zeros too), on axes with no translation.

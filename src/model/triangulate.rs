@@ -80,7 +80,7 @@ pub(crate) fn classify(pts: &[[f64; 3]], poly: &[u32], normal: [f64; 3]) -> Shap
         v.sort_unstable();
         v.windows(2).any(|w| w[0] == w[1])
     };
-    if planar && !has_repeat && convex_2d(pts, poly, k, s) && n <= LARGE_CONVEX_VERTICES {
+    if planar && !has_repeat && convex_2d(pts, poly, k, s) && corners(pts, poly) <= LARGE_CONVEX_VERTICES {
         return Shape::Keep;
     }
 
@@ -164,7 +164,10 @@ pub(crate) fn classify(pts: &[[f64; 3]], poly: &[u32], normal: [f64; 3]) -> Shap
 /// surface of O(n) cells costs O(n²) (a 10k-gon cap: 12 s of splitting); a larger one is
 /// ear-clipped like a non-convex polygon (`triangles_from_triangulation`), which on a
 /// convex outline, going on two vertices after each ear, halves it pass by pass into
-/// triangles no thinner than the outline's own corners need.
+/// triangles no thinner than the outline's own corners need. Only corners count
+/// (vertices not collinear with their neighbours): straight-angle vertices are dropped
+/// from the polygon the splitting clips, so a floor whose four edges carry thousands of
+/// wall vertices stays one polygon, clipped as a quad.
 pub(crate) const LARGE_CONVEX_VERTICES: usize = 256;
 
 /// The largest non-planar polygon with a self-crossing outline that [`min_area_3d`]
@@ -332,6 +335,15 @@ fn goes_straight(p: &[f64; 3], c: &[f64; 3], n: &[f64; 3], k: usize) -> bool {
 
 /// Convex in the projection dropping axis `k` with orientation `s`: no reflex turn, no spike,
 /// winding once. Straight angles are allowed.
+/// Vertices of `poly` not exactly collinear with their neighbours (see
+/// [`crate::model::Model::is_corner`]): the splitting clips only these, so only these
+/// count against [`LARGE_CONVEX_VERTICES`].
+fn corners(pts: &[[f64; 3]], poly: &[u32]) -> usize {
+    let n = poly.len();
+    let p = |i: usize| &pts[poly[i % n] as usize];
+    (0..n).filter(|&i| !collinear(p(i + n - 1), p(i), p(i + 1))).count()
+}
+
 fn convex_2d(pts: &[[f64; 3]], poly: &[u32], k: usize, s: i32) -> bool {
     let n = poly.len();
     let p = |i: usize| &pts[poly[i % n] as usize];
