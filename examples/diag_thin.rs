@@ -1,6 +1,6 @@
 //! Diagnostics for regions lost to the sliver rules: `cargo run --release --example
 //! diag_thin -- MODEL.obj`. Counts cells that are thin, flat, face an occluder with and
-//! without the sliver rule, and the volume of each class.
+//! without the sliver rule, and the volume of each class; and the occluder pieces.
 fn main() {
     let a: Vec<String> = std::env::args().collect();
     let m = portalfind::model::load_model(std::path::Path::new(&a[1])).expect("load");
@@ -42,4 +42,7 @@ fn main() {
     }
     println!("cells {n} thin {thin} flat {flat} faces-occluder {faces} faces-any-occluder {faces_any} exterior {ext}");
     println!("volume all {v_all:.4} exterior {v_ext:.4} thin {v_thin:.4}");
+    let occ: usize = cx.patches.iter().filter(|p| p.alive).map(|p| p.occluders.len()).sum();
+    let patches = cx.patches.iter().filter(|p| p.alive).count();
+    println!("alive patches {patches} occluder pieces {occ}");
 }
