@@ -539,8 +539,10 @@ enum BenchCmd {
         out: PathBuf,
     },
     /// Bounded cost on degenerate input (issue 16): a round room whose floor and ceiling
-    /// are each one convex n-gon, the same with star-shaped (non-convex) caps, and a box
-    /// with one face of n random vertex indices, at growing n, each through `complex
+    /// are each one convex n-gon, the same with star-shaped (non-convex) caps, a box
+    /// with one face of n random vertex indices, a square room whose floor has n vertices
+    /// along straight edges, and a room with a stack of n two-sided plates 1e-6 apart, at
+    /// growing n, each through `complex
     /// --no-validate` in a fresh process: wall time, peak memory, load and splitting
     /// seconds, growth exponent per family. Writes degenerate.csv, degenerate.json and
     /// table.md into --out.

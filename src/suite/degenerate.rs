@@ -17,6 +17,15 @@
 //!   into n points inside it (the 204 s, 850 MB at n = 1000): non-planar and
 //!   crossing itself, it is refused at load, naming the face, beyond 64 vertices.
 //!
+//! - `straight-edged floor`: a 20 × 20 × 3 room whose floor is **one polygon with n
+//!   vertices along its four straight edges** (every wall strip's foot), walls of n
+//!   quads, the ceiling its mirror image (closed). Only the 4 corners are clipped (straight-angle vertices
+//!   are not corners, `Model::is_corner`); ear-clipped into slivers it took 57 s at 10k.
+//! - `plate stack`: a 10 m cube room with **n two-sided 6 × 6 plates 1e-6 apart** at
+//!   mid-height (welding keeps every other one: n/2 plates 2e-6 apart): stacked membranes
+//!   that the portal graph walks up through (the walk stopped after 9 until session 29
+//!   and split the room in two).
+//!
 //! Sizes are fixed (no tuning is involved): the table shows what each size costs.
 
 use crate::model::write::write_atomic;
@@ -50,13 +59,17 @@ pub struct Row {
 }
 
 /// The families and their sizes (the largest first dropped by `max_n`).
-pub const FAMILIES: [(&str, &[usize]); 3] = [
+pub const FAMILIES: [(&str, &[usize]); 5] = [
     ("convex-cap prism", &[1_000, 10_000, 100_000]),
     // Smaller sizes: its cells (the Delaunay tetrahedra of two star-shaped rings span the
     // room) each meet thousands of wall polygons in the crossing check, which is
     // quadratic here (see the table's exponent).
     ("star-cap prism", &[1_000, 3_000, 10_000, 30_000]),
     ("random-index face", &[64, 1_000, 10_000]),
+    ("straight-edged floor", &[1_000, 10_000, 100_000]),
+    // Each gap between plates is a membrane, and each membrane walks up the stack above
+    // it: quadratic in n.
+    ("plate stack", &[100, 1_000, 3_000]),
 ];
 
 /// The OBJ text of family `family` at size `n`, and its polygon count.
@@ -131,6 +144,68 @@ pub fn model(family: &str, n: usize) -> (String, usize) {
             }
             s.push('\n');
             polys = 7;
+        }
+        "straight-edged floor" => {
+            let per = n.div_ceil(4);
+            let sq = [[-10.0, -10.0], [10.0, -10.0], [10.0, 10.0], [-10.0, 10.0]];
+            let mut rim = Vec::with_capacity(4 * per);
+            for e in 0..4 {
+                let (a, b) = (sq[e], sq[(e + 1) % 4]);
+                for i in 0..per {
+                    let t = i as f64 / per as f64;
+                    rim.push([a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t]);
+                }
+            }
+            let m = rim.len();
+            for z in [0.0, 3.0] {
+                for p in &rim {
+                    let _ = writeln!(s, "v {:?} {:?} {z:?}", p[0], p[1]);
+                }
+            }
+            // The floor seen from above, the walls inward, the ceiling seen from below.
+            s.push('f');
+            for k in 0..m {
+                let _ = write!(s, " {}", k + 1);
+            }
+            s.push('\n');
+            for k in 0..m {
+                let (a, b) = (k + 1, (k + 1) % m + 1);
+                let _ = writeln!(s, "f {a} {} {} {b}", m + a, m + b);
+            }
+            s.push('f');
+            for k in (0..m).rev() {
+                let _ = write!(s, " {}", m + k + 1);
+            }
+            s.push('\n');
+            polys = m + 2;
+        }
+        "plate stack" => {
+            for z in [0.0, 10.0] {
+                for (x, y) in [(0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0)] {
+                    let _ = writeln!(s, "v {x:?} {y:?} {z:?}");
+                }
+            }
+            // The cube facing inwards (as the random-index family's box).
+            for f in [
+                [1, 2, 3, 4],
+                [5, 8, 7, 6],
+                [1, 5, 6, 2],
+                [2, 6, 7, 3],
+                [3, 7, 8, 4],
+                [4, 8, 5, 1],
+            ] {
+                let _ = writeln!(s, "f {} {} {} {}", f[0], f[1], f[2], f[3]);
+            }
+            for i in 0..n {
+                let z = 5.0 + i as f64 * 1e-6;
+                for (x, y) in [(2.0, 2.0), (8.0, 2.0), (8.0, 8.0), (2.0, 8.0)] {
+                    let _ = writeln!(s, "v {x:?} {y:?} {z:?}");
+                }
+                let b = 9 + 4 * i;
+                let _ = writeln!(s, "f {} {} {} {}", b, b + 1, b + 2, b + 3);
+                let _ = writeln!(s, "f {} {} {} {}", b + 3, b + 2, b + 1, b);
+            }
+            polys = 6 + 2 * n;
         }
         _ => {}
     }
@@ -286,5 +361,33 @@ mod tests {
         let e = load("random-index face", 1000).expect_err("refused");
         let msg = e.to_string();
         assert!(msg.contains("face 6") && msg.contains("crosses itself"), "{msg}");
+        // The straight-edged floor and ceiling stay polygons of n vertices, closed.
+        let m = load("straight-edged floor", 1000).expect("loads");
+        assert_eq!(m.polygons.len(), 1000 + 2);
+        assert_eq!(m.polygons[0].verts.len(), 1000);
+        assert_eq!(m.report.nonplanar_or_nonconvex_triangulated, 0, "{}", m.report);
+        assert_eq!(m.report.open_edges, 0, "{}", m.report);
+        // The plates: 1e-6 apart is below the weld distance (1e-7 of the 17.3 m diagonal),
+        // and welding is not transitive, so every other plate survives: 50 two-sided
+        // plates 2e-6 apart, 49 stacked membranes.
+        let m = load("plate stack", 100).expect("loads");
+        assert_eq!(m.polygons.len(), 6 + 100, "{}", m.report);
+        assert_eq!(m.report.two_sided_pairs, 50, "{}", m.report);
+    }
+
+    /// The two families' models give what their descriptions say: the floor's room is one
+    /// region with its whole volume, and the plate stack's room stays one region.
+    #[test]
+    fn straight_floor_and_plate_stack_rooms_are_whole() {
+        for (fam, n, volume) in [("straight-edged floor", 400, 1200.0), ("plate stack", 40, 1000.0)] {
+            let (text, _) = model(fam, n);
+            let m = crate::model::parse_obj_str(fam, &text).expect("loads");
+            let cx = crate::pipeline::complex_of(&m).expect("complex");
+            cx.validate(&m).expect("valid");
+            assert_eq!(cx.stats.interior_regions, 1, "{fam}");
+            assert_eq!(cx.stats.leaks, 0, "{fam}");
+            let v: f64 = cx.active_cells().map(|(_, c)| c.volume()).sum();
+            assert!((v - volume).abs() < 1e-2, "{fam}: {v}");
+        }
     }
 }
