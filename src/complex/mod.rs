@@ -847,7 +847,7 @@ impl CellComplex {
     /// the hull's, so a normal model pays nothing.
     pub fn thin_loss_warning(&self) -> Option<String> {
         let lost = self.stats.thin_removed_volume;
-        if !(lost > 1e-4 * self.hull_volume) {
+        if lost.is_nan() || lost <= 1e-4 * self.hull_volume {
             return None;
         }
         let kept: f64 = self.active_cells().map(|(_, c)| c.volume()).sum();
