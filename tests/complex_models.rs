@@ -596,41 +596,16 @@ fn a_tall_stack_of_membranes_keeps_the_room_in_one_piece() {
     }
 }
 
-/// A 0.1 × 10 × 3 room whose floor is `k` pairs of sliver triangles running its length
-/// (the walls' bottom edges meet the floor's vertices at T-junctions, which the loader
-/// welds). With `k = 1000` the triangles are 1e-4 wide, below the sliver width (1e-5 of
-/// the diagonal, 1.04e-4), and every tetrahedron over the floor is a sliver.
-fn sliver_floor_room(k: usize) -> Soup {
-    let mut s = Soup::default();
-    let (w, l, h) = (0.1, 10.0, 3.0);
-    s.rect(2, h, (0.0, w), (0.0, l), false);
-    s.rect(0, 0.0, (0.0, l), (0.0, h), true);
-    s.rect(0, w, (0.0, l), (0.0, h), false);
-    s.rect(1, 0.0, (0.0, h), (0.0, w), true);
-    s.rect(1, l, (0.0, h), (0.0, w), false);
-    let b = s.vertices.len() as u32;
-    for i in 0..=k {
-        let x = w * i as f64 / k as f64;
-        s.vertices.extend([[x, 0.0, 0.0], [x, l, 0.0]]);
-    }
-    for i in 0..k as u32 {
-        let (a0, b0, a1, b1) = (b + 2 * i, b + 2 * i + 1, b + 2 * i + 2, b + 2 * i + 3);
-        s.polygons.push(vec![a0, a1, b1]);
-        s.polygons.push(vec![a0, b1, b0]);
-    }
-    s
-}
-
 #[test]
 fn volume_lost_to_the_sliver_rules_is_reported() {
     // 500 triangles 2e-4 wide: above the sliver width, the whole room is kept.
-    let (_, cx) = build(&sliver_floor_room(500));
+    let (_, cx) = build(&scenes::sliver_floor_room(500));
     assert_eq!(cx.stats.thin_removed_cells, 0);
     assert!((active_volume(&cx) - 3.0).abs() < 1e-9, "{}", active_volume(&cx));
     assert!(cx.thin_loss_warning().is_none());
     // 1000 triangles 1e-4 wide: the sliver cells over the floor face it but count as
     // facing nothing and are removed; the loss is counted and warned about, not silent.
-    let (_, cx) = build(&sliver_floor_room(1000));
+    let (_, cx) = build(&scenes::sliver_floor_room(1000));
     let lost = cx.stats.thin_removed_volume;
     assert!(cx.stats.thin_removed_cells > 0);
     assert!(

@@ -1118,3 +1118,30 @@ fn export_and_evaluate_find_the_model_from_the_run_directory_or_name_model_optio
     assert!(o.status.success(), "{}", text(&o));
     std::fs::remove_dir_all(&base).unwrap();
 }
+
+/// `run` on a room whose floor is slivers narrower than the sliver width exits 0 but says
+/// what the sliver rules removed: a warning on stderr naming the share of the volume, and
+/// the count and volume in result.json.
+#[test]
+fn run_warns_of_volume_lost_to_the_sliver_rules() {
+    let dir = tmp_dir("thin");
+    let obj = dir.join("sliver_floor.obj");
+    write_obj(&scenes::sliver_floor_room(1000), &obj);
+    let out = dir.join("out");
+    let exe = env!("CARGO_BIN_EXE_portalfind");
+    let r = Command::new(exe)
+        .args(["run", obj.to_str().unwrap(), "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(r.status.success(), "{err}");
+    assert!(
+        err.contains("removed as exterior because each is thinner than the sliver width"),
+        "{err}"
+    );
+    let doc: Value = serde_json::from_slice(&std::fs::read(out.join("result.json")).unwrap()).unwrap();
+    assert!(uint(&doc["complex"], "thin_removed_cells") > 0);
+    assert!(num(&doc["complex"], "thin_removed_volume") > 0.03, "{}", doc["complex"]);
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -61,6 +61,31 @@ pub fn box_room() -> Soup {
     s
 }
 
+/// A 0.1 × 10 × 3 room whose floor is `k` pairs of sliver triangles running its length
+/// (the walls' bottom edges meet the floor's vertices at T-junctions, which the loader
+/// reports). With `k = 1000` the triangles are 1e-4 wide, below the sliver width (1e-5 of
+/// the diagonal, 1.04e-4), and every tetrahedron over the floor is a sliver.
+pub fn sliver_floor_room(k: usize) -> Soup {
+    let mut s = Soup::default();
+    let (w, l, h) = (0.1, 10.0, 3.0);
+    s.rect(2, h, (0.0, w), (0.0, l), false);
+    s.rect(0, 0.0, (0.0, l), (0.0, h), true);
+    s.rect(0, w, (0.0, l), (0.0, h), false);
+    s.rect(1, 0.0, (0.0, h), (0.0, w), true);
+    s.rect(1, l, (0.0, h), (0.0, w), false);
+    let b = s.vertices.len() as u32;
+    for i in 0..=k {
+        let x = w * i as f64 / k as f64;
+        s.vertices.extend([[x, 0.0, 0.0], [x, l, 0.0]]);
+    }
+    for i in 0..k as u32 {
+        let (a0, b0, a1, b1) = (b + 2 * i, b + 2 * i + 1, b + 2 * i + 2, b + 2 * i + 3);
+        s.polygons.push(vec![a0, a1, b1]);
+        s.polygons.push(vec![a0, b1, b0]);
+    }
+    s
+}
+
 /// Two 4 × 4 × 3 rooms, `x ∈ [0,4]` and `x ∈ [5,9]`, joined through a 1 m thick wall by a
 /// door corridor `x ∈ [4,5], y ∈ [1.5,2.5], z ∈ [0,2]`.
 pub fn two_rooms() -> Soup {
