@@ -1131,7 +1131,7 @@ fn complex(
     for why in &s.rejected_levels {
         eprintln!("warning: the cell complex was invalid at tolerance {why}");
     }
-    let rows: [(&str, String); 17] = [
+    let rows: [(&str, String); 18] = [
         ("model polygons", s.polygons.to_string()),
         ("tetrahedra", s.tetrahedra.to_string()),
         (
@@ -1169,6 +1169,10 @@ fn complex(
         (
             "slivers discarded",
             format!("{} (total area {:.3e})", s.slivers_discarded, s.sliver_area),
+        ),
+        (
+            "thin cells facing polygons removed",
+            format!("{} (volume {:.3e})", s.thin_removed_cells, s.thin_removed_volume),
         ),
         ("leaks", s.leaks.to_string()),
         ("openings sealed", s.openings_sealed.to_string()),
