@@ -14,6 +14,20 @@ fn build(s: &Soup) -> (Model, CellComplex) {
     (m, cx)
 }
 
+/// [`build`] on a model of `portalfind bench degenerate` (`suite::degenerate::model`):
+/// the plate stack (a 10 m cube, `n` two-sided 6 × 6 plates 1e-6 apart at mid-height,
+/// every other one kept by the weld), the straight-edged floor (a 20 × 20 × 3 room whose
+/// floor and ceiling have `n` vertices on four straight edges).
+fn build_family(family: &str, n: usize) -> (Model, CellComplex) {
+    let (text, _) = portalfind::suite::degenerate::model(family, n);
+    let m = portalfind::model::parse_obj_str(family, &text).expect("model");
+    let t = Tetrahedralization::build(&m.vertices).expect("tetra");
+    t.validate().expect("tetra validate");
+    let cx = CellComplex::build(&m, &t);
+    cx.validate(&m).unwrap_or_else(|e| panic!("complex validate: {e}"));
+    (m, cx)
+}
+
 fn active_volume(cx: &CellComplex) -> f64 {
     cx.active_cells().map(|(_, c)| c.volume()).sum()
 }
@@ -565,29 +579,16 @@ fn t_vertex_next_to_a_chord_end_goes_to_its_side() {
     noisy_variant_is_valid_at_level_0(portalfind::suite::Family::Greedy, 2, "greedy-2-greedy", 1e-5);
 }
 
-/// A 10 m cube with `k` two-sided 6 × 6 plates stacked 1e-6 apart at mid-height: each gap
-/// between plates is a membrane (thinner than the sliver width) that the portal graph
-/// crosses to join the room below the stack with the room above it.
-fn plate_stack(k: usize) -> Soup {
-    let mut s = Soup::default();
-    s.boxed([0.0, 0.0, 0.0], [10.0, 10.0, 10.0], true);
-    for i in 0..k {
-        let z = 5.0 + i as f64 * 1e-6;
-        s.rect(2, z, (2.0, 8.0), (2.0, 8.0), true);
-        s.rect(2, z, (2.0, 8.0), (2.0, 8.0), false);
-    }
-    s
-}
-
 #[test]
 fn a_tall_stack_of_membranes_keeps_the_room_in_one_piece() {
-    // The walk through stacked membranes was cut after 9 of them: 40 plates split the
-    // room into two regions with no portal between them (the probe of session 28).
+    // The walk through stacked membranes was cut after 9 of them: 40 plates in the file
+    // (20 after the weld) split the room into two regions with no portal between them
+    // (the probe of session 28).
     for k in [1, 40] {
-        let (_, cx) = build(&plate_stack(k));
+        let (_, cx) = build_family("plate stack", k);
         assert_eq!(cx.stats.interior_regions, 1, "{k} plates");
         assert_eq!(cx.stats.leaks, 0, "{k} plates");
-        // The stack itself (36 m² × 39 µm) and the membranes beside it are not room.
+        // The stack itself (36 m² × 38 µm) and the membranes beside it are not room.
         assert!(
             (active_volume(&cx) - 1000.0).abs() < 1e-2,
             "{k} plates: {}",
@@ -617,38 +618,12 @@ fn volume_lost_to_the_sliver_rules_is_reported() {
     assert!(w.contains("thinner than the sliver width"), "{w}");
 }
 
-/// A 20 × 20 × 3 room whose floor is one polygon with `per` vertices along each edge
-/// (straight angles everywhere but the four corners), each wall a strip of `4 * per`
-/// quads meeting it there; the ceiling one quad.
-fn straight_edged_floor(per: usize) -> Soup {
-    let mut s = Soup::default();
-    let sq = [[-10.0, -10.0], [10.0, -10.0], [10.0, 10.0], [-10.0, 10.0]];
-    let mut rim = Vec::new();
-    for e in 0..4 {
-        let (a, b) = (sq[e], sq[(e + 1) % 4]);
-        for i in 0..per {
-            let t = i as f64 / per as f64;
-            rim.push([a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t]);
-        }
-    }
-    let n = rim.len() as u32;
-    s.vertices.extend(rim.iter().map(|p| [p[0], p[1], 0.0]));
-    s.vertices.extend(rim.iter().map(|p| [p[0], p[1], 3.0]));
-    s.polygons.push((0..n).collect());
-    for i in 0..n {
-        let j = (i + 1) % n;
-        s.polygons.push(vec![i, n + i, n + j, j]);
-    }
-    s.rect(2, 3.0, (-10.0, 10.0), (-10.0, 10.0), false);
-    s
-}
-
 #[test]
 fn a_floor_with_thousands_of_straight_vertices_is_clipped_as_a_quad() {
     // 4,000 vertices, 4 corners: kept as one polygon (only corners count against the
     // ear-clipping limit) and placed as a quad; it took ~57 s at 10,000 vertices when
     // it was ear-clipped into slivers, each visiting every cell around it.
-    let (m, cx) = build(&straight_edged_floor(1000));
+    let (m, cx) = build_family("straight-edged floor", 4000);
     assert_eq!(m.polygons.len(), 1 + 4000 + 1, "the floor is kept whole");
     assert_eq!(m.polygons[0].verts.len(), 4000);
     assert_eq!((0..4000).filter(|&k| m.is_corner(0, k)).count(), 4);

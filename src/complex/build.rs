@@ -380,13 +380,8 @@ impl CellComplex {
             support.plane
         };
         let start = canonical_start(model, pid);
-        let n = poly.verts.len();
         // The corners only (`Model::is_corner`): the same region, clipped in O(corners).
-        let verts: Vec<[f64; 3]> = (0..n)
-            .map(|k| (start + k) % n)
-            .filter(|&k| model.is_corner(pid.idx(), k))
-            .map(|k| support.project(&model.vertices[poly.verts[k].idx()]))
-            .collect();
+        let verts: Vec<[f64; 3]> = corner_cycle(model, pid).iter().map(|v| support.project(v)).collect();
         let polygon = ConvexPolygon::new(verts.clone());
         let ids = support.ids;
         let (lo, hi) = aabb(&verts);
