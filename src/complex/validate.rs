@@ -250,10 +250,16 @@ impl CellComplex {
                 .with_min_len(256)
                 .filter(|&i| self.cells[i].alive)
                 .map(|i| {
-                    (
-                        self.cell_volume(CellId(i as u32)),
-                        volume_rounding(&self.cells[i].poly()),
-                    )
+                    let poly = self.cells[i].poly();
+                    // Cells with a face of four or more vertices (possibly non-planar)
+                    // count the volume their neighbours agree on (`tiling_volume`); a
+                    // cell of triangles has one volume whatever the fans.
+                    let v = if poly.faces.iter().any(|f| f.verts.len() > 3) {
+                        poly.tiling_volume()
+                    } else {
+                        self.cell_volume(CellId(i as u32))
+                    };
+                    (v, volume_rounding(&poly))
                 })
                 .collect();
             for (v, r) in terms {
@@ -820,7 +826,9 @@ fn crack_crossing(
     (covered >= 0.5 * sa && covered > 0.0).then_some(covered)
 }
 
-/// An upper bound of the rounding error of [`ConvexPolyhedron::volume`]: the volume is a
+/// An upper bound of the rounding error of the volume a cell adds to the volume sum
+/// ([`ConvexPolyhedron::volume`], or [`ConvexPolyhedron::tiling_volume`] for cells with
+/// larger faces, whose fans have one triangle per edge): the volume is a
 /// sum over each face's fan triangles of `a · (b × c) / 6` with `a`, `b`, `c` relative to
 /// a reference vertex, each at most the cell's bounding-box diagonal `d` long; each term
 /// is off by at most ~`4 ε d³` from the arithmetic, so the bound is `8 ε d³ / 6` per fan
@@ -834,7 +842,16 @@ fn volume_rounding(p: &ConvexPolyhedron) -> f64 {
     let (lo, hi) = p.aabb();
     let d = crate::base::vec::dist(&lo, &hi);
     let m = (0..3).map(|k| lo[k].abs().max(hi[k].abs())).fold(0.0, f64::max);
-    let triangles: usize = p.faces.iter().map(|f| f.verts.len().saturating_sub(2)).sum();
+    // Fan triangles: one per triangle, one per edge of a larger face (`tiling_volume`).
+    let triangles: usize = p
+        .faces
+        .iter()
+        .map(|f| match f.verts.len() {
+            0..=2 => 0,
+            3 => 1,
+            n => n,
+        })
+        .sum();
     8.0 * f64::EPSILON * d * d * (d + m) * triangles as f64 / 6.0
 }
 
