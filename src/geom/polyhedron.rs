@@ -1050,7 +1050,12 @@ mod tests {
     #[test]
     fn tiling_volumes_of_cells_sharing_a_twisted_face_add_up() {
         let d = 1e-3;
-        let (p00, p10, p11, p01) = ([0.0, 0.0, 0.5], [1.0, 0.0, 0.5 + d], [1.0, 1.0, 0.5], [0.0, 1.0, 0.5 + d]);
+        let (p00, p10, p11, p01) = (
+            [0.0, 0.0, 0.5],
+            [1.0, 0.0, 0.5 + d],
+            [1.0, 1.0, 0.5],
+            [0.0, 1.0, 0.5 + d],
+        );
         let poly = |faces: Vec<Vec<P3>>| {
             let n = faces.len();
             ConvexPolyhedron::from_faces(faces.into_iter().map(ConvexPolygon::new).collect(), vec![0; n])
