@@ -1,6 +1,7 @@
 //! The cells on each leak path of a stress variant's complex (`cargo run --release
 //! --example diag_leakpath -- FAMILY SEED NOISE`): thin, flat, membrane, and the occluders
 //! on each face (normal's |cos| to the largest face's).
+use portalfind::base::vec::dot;
 use portalfind::ids::CellId;
 use portalfind::suite::stress::{Variant, apply};
 use portalfind::suite::{Family, case};
@@ -25,7 +26,7 @@ fn main() {
             let mut desc = Vec::new();
             for (f, &t) in faces.iter().zip(cell.tags()) {
                 let fnm = f.plane().normalized().n;
-                let cos = (n[0] * fnm[0] + n[1] * fnm[1] + n[2] * fnm[2]).abs();
+                let cos = dot(&n, &fnm).abs();
                 let p = &cx.patches[t as usize];
                 desc.push(format!("cos {cos:.3} area {:.2e} occ {}", f.area(), p.occluders.len()));
             }

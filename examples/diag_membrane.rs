@@ -1,7 +1,9 @@
 //! Membranes of a model's complex (`cargo run --release --example diag_membrane --
-//! MODEL.obj`): flat cells, and cells thinner than the sliver width whose side faces (normal
-//! within `THIN_ATTACH_COS` of the largest face's) do or do not carry an occluder, with
-//! their volumes and how many of each were removed as exterior.
+//! MODEL.obj`): flat cells, and cells thinner than the sliver width whose side faces
+//! (normal within |cos| 0.99 of the largest face's, the complex's `THIN_ATTACH_COS`) do or
+//! do not carry an occluder, with their volumes and how many of each were removed as
+//! exterior.
+use portalfind::base::vec::dot;
 use portalfind::ids::CellId;
 
 fn main() {
@@ -26,7 +28,7 @@ fn main() {
         let tags = c.tags();
         let side_occluded = faces.iter().zip(tags).any(|(f, &t)| {
             let fnrm = f.plane().normalized().n;
-            let cos = (n[0] * fnrm[0] + n[1] * fnrm[1] + n[2] * fnrm[2]).abs();
+            let cos = dot(&n, &fnrm).abs();
             cos >= 0.99 && !cx.patches[t as usize].occluders.is_empty()
         });
         if side_occluded {
