@@ -338,6 +338,11 @@ impl CellComplex {
     fn through_flat(&self, membrane: &[bool]) -> (Vec<Link>, Vec<(CellId, [f64; 3])>) {
         let (mut links, mut hull) = (Vec::new(), Vec::new());
         let max_depth = membrane.iter().filter(|&&m| m).count() + 1;
+        // A patch's open pieces are a function of the patch; the walks meet the same faces
+        // again and again (every membrane of a stack from every cell below it: a real level's
+        // overlapping floors spent 19 s subtracting the same occluders), so each is computed
+        // once here.
+        let mut open_of: HashMap<u32, std::rc::Rc<Vec<ConvexPolygon>>> = HashMap::new();
         for (f, cell) in self.alive_cells().filter(|(c, _)| membrane[c.idx()]) {
             let Some(n) = cell
                 .faces()
@@ -352,11 +357,22 @@ impl CellComplex {
                 if x != HULL && membrane[x.idx()] {
                     continue;
                 }
-                let (open, _, _) = self.open_pieces(PatchId(t));
-                self.rise(membrane, f, n, &open, x, max_depth, &mut links, &mut hull);
+                let open = self.open_cached(t, &mut open_of);
+                self.rise(membrane, f, n, &open, x, max_depth, &mut links, &mut hull, &mut open_of);
             }
         }
         (links, hull)
+    }
+
+    /// [`CellComplex::open_pieces`] of patch `t`, once per patch in `memo`.
+    fn open_cached(
+        &self,
+        t: u32,
+        memo: &mut HashMap<u32, std::rc::Rc<Vec<ConvexPolygon>>>,
+    ) -> std::rc::Rc<Vec<ConvexPolygon>> {
+        memo.entry(t)
+            .or_insert_with(|| std::rc::Rc::new(self.open_pieces(PatchId(t)).0))
+            .clone()
     }
 
     /// Faces of flat cell `f` whose outward normal points along `n` (`up`) or against it,
@@ -394,6 +410,7 @@ impl CellComplex {
         max_depth: usize,
         links: &mut Vec<Link>,
         hull: &mut Vec<(CellId, [f64; 3])>,
+        open_of: &mut HashMap<u32, std::rc::Rc<Vec<ConvexPolygon>>>,
     ) {
         // Frames: (membrane, region reaching it, its faces up, next face to visit).
         let mut stack = vec![(f, region.to_vec(), self.flat_faces(f, n, true), 0usize)];
@@ -406,10 +423,10 @@ impl CellComplex {
             *next += 1;
             let f = *f;
             let z = self.across(PatchId(t), f);
-            let (open, _, _) = self.open_pieces(PatchId(t));
+            let open = self.open_cached(t, open_of);
             let mut pieces = Vec::new();
             for a in &top.1 {
-                for b in &open {
+                for b in open.iter() {
                     if let Some(o) = a.intersect_coplanar(b, &self.tol)
                         && !is_sliver(&o, &self.tol)
                     {
