@@ -290,69 +290,18 @@ fn portal_passage(
     if s.is_finite() { s } else { 0.0 }
 }
 
-/// The distance field of `cx`'s model polygons as placed: the occluders of its live
-/// patches, with the pieces of one model polygon replaced by their convex hull on its
-/// support plane ([`coplanar_hull`](crate::geom::coplanar_hull)) when there are three or
-/// more (one or two pieces are kept as they are, bit for bit).
-///
-/// The pieces of a polygon tile (a convex part of) it, so the hull is the same surface and
-/// the distances are the same up to rounding; what changes is the triangles the search
-/// sees. A polygon split by many cells comes in long thin pieces (a floor under a wall of
-/// many vertical strips is cut into a fan of slivers that reach across the room), whose
-/// bounding boxes overlap everywhere: each query then tests most of them (the strip-wall
-/// probe `gen.py collinear 5000`: 1,255 polygons, 1.5 s of weights). The hull is a few
-/// triangles. Pieces of a polygon without a support plane (complexes built by hand in
-/// tests) stay as they are.
-fn field_of_occluders(cx: &CellComplex) -> ClearanceField {
-    // Two pieces are one cut (a quad on two tetrahedron faces, most polygons of a large
-    // tessellated model): their hull saves nothing and would cost a sort per polygon.
-    const MERGE_PIECES: u32 = 3;
-    // One walk over the patches (the largest array of a large complex).
-    let occluders: Vec<&crate::complex::Occluder> = cx
-        .patches
-        .iter()
-        .filter(|p| p.alive)
-        .flat_map(|p| p.occluders.iter())
-        .collect();
-    let planes = &cx.polygon_planes;
-    let mut pieces = vec![0u32; planes.len()];
-    for o in &occluders {
-        if let Some(c) = pieces.get_mut(o.source.idx()) {
-            *c = c.saturating_add(1);
-        }
-    }
-    let merged = |o: &crate::complex::Occluder| pieces.get(o.source.idx()).is_some_and(|&c| c >= MERGE_PIECES);
-    // The merged polygons' vertices, by source, in the order sources first appear.
-    let mut slot = vec![u32::MAX; planes.len()];
-    let mut points: Vec<(usize, Vec<[f64; 3]>)> = Vec::new();
-    for o in occluders.iter().filter(|o| merged(o)) {
-        let s = &mut slot[o.source.idx()];
-        if *s == u32::MAX {
-            *s = points.len() as u32;
-            points.push((o.source.idx(), Vec::new()));
-        }
-        points[*s as usize].1.extend_from_slice(o.polygon.verts.as_slice());
-    }
-    let hulls: Vec<Vec<[f64; 3]>> = points
-        .into_par_iter()
-        .map(|(src, pts)| crate::geom::coplanar_hull(pts, &planes[src].n))
-        .collect();
-    ClearanceField::from_polygons(
-        occluders
-            .iter()
-            .filter(|o| !merged(o))
-            .map(|o| o.polygon.verts.as_slice())
-            .chain(hulls.iter().map(Vec::as_slice)),
-    )
-}
-
 impl CellField {
     /// The field of the active cells of `cx`: distances to the occluders of its live
     /// patches (the model's polygons, as placed). Cells and portals are evaluated in
     /// parallel (rayon); each value is computed by one thread in a fixed order, so the
     /// field does not depend on the number of threads.
     pub fn new(cx: &CellComplex) -> Self {
-        let field = field_of_occluders(cx);
+        let field = ClearanceField::from_polygons(
+            cx.patches
+                .iter()
+                .filter(|p| p.alive)
+                .flat_map(|p| p.occluders.iter().map(|o| o.polygon.verts.as_slice())),
+        );
         // (raw clearance of the best sample, the sample) per cell; inactive cells (0, origin).
         let peaks: Vec<(f64, [f64; 3])> = cx
             .cells
@@ -2857,8 +2806,12 @@ mod tests {
                 t = (t + (0.25 * c / len).max(1.0 / 64.0)).min(1.0);
             }
         }
-        // The same triangles as the fast field (the reference is of the queries).
-        let field = field_of_occluders(cx);
+        let field = ClearanceField::from_polygons(
+            cx.patches
+                .iter()
+                .filter(|p| p.alive)
+                .flat_map(|p| p.occluders.iter().map(|o| o.polygon.verts.as_slice())),
+        );
         let mut value = vec![0.0; cx.cells.len()];
         let mut best = vec![[0.0; 3]; cx.cells.len()];
         for (id, c) in cx.active_cells() {
@@ -2963,81 +2916,6 @@ mod tests {
         let m = crate::model::from_soup("rooms 2x2", soup.vertices, soup.polygons).unwrap();
         out.push(("rooms 2x2".into(), crate::pipeline::complex_of(&m).unwrap()));
         out
-    }
-
-    /// A polygon cut into many pieces is searched as its hull: a room whose floor is fanned
-    /// into slivers by a wall of 200 strips (the strip-wall probe) gets a field of far fewer
-    /// triangles, with the distances of the pieces' field up to rounding; so do the thesis
-    /// models and a tessellated building (never more triangles than their pieces).
-    #[test]
-    fn split_polygons_are_searched_as_their_hulls() {
-        let k = 200;
-        let mut v: Vec<[f64; 3]> = Vec::new();
-        let mut polys: Vec<Vec<u32>> = Vec::new();
-        let mut quad = |v: &mut Vec<[f64; 3]>, q: [[f64; 3]; 4]| {
-            let b = v.len() as u32;
-            v.extend(q);
-            polys.push(vec![b, b + 1, b + 2, b + 3]);
-        };
-        let (x, y, z) = (100.0, 10.0, 3.0);
-        // Inward-facing box without its y = 0 wall, then that wall as `k` strips.
-        quad(&mut v, [[0.0, 0.0, 0.0], [0.0, y, 0.0], [x, y, 0.0], [x, 0.0, 0.0]]);
-        quad(&mut v, [[0.0, 0.0, z], [x, 0.0, z], [x, y, z], [0.0, y, z]]);
-        quad(&mut v, [[0.0, y, 0.0], [0.0, y, z], [x, y, z], [x, y, 0.0]]);
-        quad(&mut v, [[0.0, 0.0, 0.0], [0.0, 0.0, z], [0.0, y, z], [0.0, y, 0.0]]);
-        quad(&mut v, [[x, 0.0, 0.0], [x, y, 0.0], [x, y, z], [x, 0.0, z]]);
-        for i in 0..k {
-            let (a, b) = (x * i as f64 / k as f64, x * (i + 1) as f64 / k as f64);
-            quad(&mut v, [[a, 0.0, 0.0], [b, 0.0, 0.0], [b, 0.0, z], [a, 0.0, z]]);
-        }
-        let m = crate::model::from_soup("strip wall", v, polys).unwrap();
-        let cx = crate::pipeline::complex_of(&m).unwrap();
-        let pieces = ClearanceField::from_polygons(
-            cx.patches
-                .iter()
-                .filter(|p| p.alive)
-                .flat_map(|p| p.occluders.iter().map(|o| o.polygon.verts.as_slice())),
-        );
-        let merged = field_of_occluders(&cx);
-        // Each of the k + 5 quads is its own hull: two triangles.
-        assert!(
-            merged.triangles() == 2 * (k + 5) && pieces.triangles() > merged.triangles() + 100,
-            "{} triangles, {} as pieces",
-            merged.triangles(),
-            pieces.triangles()
-        );
-        let mut rng = crate::geom::testutil::Rng::new(3);
-        for _ in 0..2000 {
-            let p = [x * rng.f64(), y * rng.f64(), z * rng.f64()];
-            let (a, b) = (merged.distance(p), pieces.distance(p));
-            assert!((a - b).abs() <= 1e-12 * x, "{p:?}: {a} vs {b}");
-        }
-        // The thesis models and a tessellated building: never more triangles than the
-        // pieces, and the pieces' distances up to rounding.
-        for (name, cx) in complexes() {
-            let occ: Vec<&crate::complex::Occluder> = cx
-                .patches
-                .iter()
-                .filter(|p| p.alive)
-                .flat_map(|p| p.occluders.iter())
-                .collect();
-            let pieces = ClearanceField::from_polygons(occ.iter().map(|o| o.polygon.verts.as_slice()));
-            let merged = field_of_occluders(&cx);
-            assert!(merged.triangles() <= pieces.triangles(), "{name}");
-            let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-            for v in occ.iter().flat_map(|o| o.polygon.verts.iter()) {
-                for d in 0..3 {
-                    lo[d] = lo[d].min(v[d]);
-                    hi[d] = hi[d].max(v[d]);
-                }
-            }
-            let diag = norm(&[hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]]);
-            for _ in 0..500 {
-                let p: [f64; 3] = std::array::from_fn(|d| lo[d] + (hi[d] - lo[d]) * rng.f64());
-                let (a, b) = (merged.distance(p), pieces.distance(p));
-                assert!((a - b).abs() <= 1e-12 * diag, "{name} {p:?}: {a} vs {b}");
-            }
-        }
     }
 
     #[test]

@@ -134,11 +134,6 @@ impl ClearanceField {
         ClearanceField { tris, nodes }
     }
 
-    /// How many triangles the field searches.
-    pub fn triangles(&self) -> usize {
-        self.tris.len()
-    }
-
     /// Distance from `p` to the nearest triangle (`+inf` for an empty model).
     pub fn distance(&self, p: P3) -> f64 {
         self.search(p, f64::INFINITY, -1.0).unwrap_or(f64::INFINITY)

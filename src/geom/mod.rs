@@ -73,12 +73,12 @@ mod plane;
 mod polygon;
 mod polyhedron;
 #[cfg(test)]
-pub(crate) mod testutil;
+mod testutil;
 pub(crate) mod vec;
 
 pub use clearance::ClearanceField;
 pub use plane::{Classification, Plane, Side};
-pub use polygon::{ConvexPolygon, INLINE_VERTS, PolygonSplit, Subtraction, Verts, coplanar_hull};
+pub use polygon::{ConvexPolygon, INLINE_VERTS, PolygonSplit, Subtraction, Verts};
 pub use polyhedron::{
     ConvexPolyhedron, Cut, PolyhedronSplit, check_faces, contains_of, min_volume, moments_of, vertices_of,
 };

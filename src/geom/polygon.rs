@@ -876,57 +876,6 @@ fn area2(pts: impl Iterator<Item = [f64; 2]> + Clone) -> f64 {
     0.5 * s
 }
 
-/// Convex hull of points that lie on one plane with normal `normal` (up to rounding): the
-/// extreme points among `points`, counter-clockwise seen from the side `normal` points to,
-/// collinear and repeated points dropped; no new coordinates. Andrew's monotone chain on the
-/// projection that drops the normal's dominant axis, every turn decided by the exact
-/// [`orient2d_proj`](crate::predicates::orient2d_proj), so the answer does not depend on
-/// the points' order. Points with the same projection count once (the first in sorted
-/// order). Empty for a zero or non-finite normal; fewer than three points when the
-/// projections are collinear.
-pub fn coplanar_hull(mut points: Vec<P3>, normal: &[f64; 3]) -> Vec<P3> {
-    use crate::predicates::orient2d_proj;
-    let Some((i, j, k)) = axes(normal) else {
-        return Vec::new();
-    };
-    // Sorted by the projection's first, then second coordinate (the predicate's own
-    // coordinate order for axis `k`), so the chains run left to right in its frame.
-    let (a, b) = match k {
-        0 => (1, 2),
-        1 => (2, 0),
-        _ => (0, 1),
-    };
-    points.sort_by(|p, q| p[a].total_cmp(&q[a]).then(p[b].total_cmp(&q[b])));
-    points.dedup_by(|p, q| p[a].to_bits() == q[a].to_bits() && p[b].to_bits() == q[b].to_bits());
-    if points.len() < 3 {
-        return points;
-    }
-    let mut h: Vec<P3> = Vec::with_capacity(points.len() + 1);
-    // Lower chain left to right, then upper chain right to left; each drops its last
-    // point (the next chain's first). Counter-clockwise in the predicate's frame.
-    for pass in 0..2 {
-        let start = h.len();
-        let mut step = |p: &P3| {
-            while h.len() >= start + 2 && orient2d_proj(&h[h.len() - 2], &h[h.len() - 1], p, k) <= 0 {
-                h.pop();
-            }
-            h.push(*p);
-        };
-        if pass == 0 {
-            points.iter().for_each(&mut step);
-        } else {
-            points.iter().rev().for_each(&mut step);
-        }
-        h.pop();
-    }
-    // The predicate's frame (a, b) is right-handed about +axis k; `axes` gives (i, j)
-    // right-handed about the normal, so the loop turns the normal's way when they agree.
-    if (i, j) != (a, b) {
-        h.reverse();
-    }
-    h
-}
-
 /// Convex hull of 2D points, counter-clockwise (Andrew's monotone chain; collinear
 /// points dropped).
 fn hull2(mut pts: Vec<[f64; 2]>) -> Vec<[f64; 2]> {
@@ -1529,57 +1478,5 @@ mod tests {
         let line = ConvexPolygon::new(vec![[0.0; 3], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]]);
         assert_eq!(line.normal(), [0.0; 3]);
         assert!(line.intersect_coplanar(&line, &tol).is_none());
-    }
-
-    /// The hull keeps the extreme points of a square's points (inside, on its edges, at
-    /// its corners, repeated), in every frame: input points only, the square's area, the
-    /// normal's turning sense, and the same bits whatever the points' order; axis-aligned,
-    /// exactly the four corners (collinear edge points dropped).
-    #[test]
-    fn coplanar_hull_is_the_extreme_points_in_any_order() {
-        let mut rng = Rng::new(7);
-        for (fr, _) in frames(6.0) {
-            let mut local: Vec<[f64; 2]> = vec![[0.0, 0.0], [4.0, 0.0], [4.0, 4.0], [0.0, 4.0]];
-            for k in 1..8 {
-                let t = k as f64 * 0.5;
-                local.extend([[t, 0.0], [4.0, t], [t, 4.0], [0.0, t], [t, t]]);
-            }
-            for _ in 0..20 {
-                local.push([4.0 * rng.f64(), 4.0 * rng.f64()]);
-            }
-            local.push([4.0, 4.0]);
-            let pts: Vec<P3> = local.iter().map(|p| fr.apply([p[0], p[1], 0.0])).collect();
-            let n = fr.apply_vec([0.0, 0.0, 1.0]);
-            let h = coplanar_hull(pts.clone(), &n);
-            assert!(h.len() >= 4, "{}: {h:?}", fr.name);
-            assert!(h.iter().all(|p| pts.contains(p)), "{}", fr.name);
-            for c in [[0.0, 0.0], [4.0, 0.0], [4.0, 4.0], [0.0, 4.0]] {
-                assert!(h.contains(&fr.apply([c[0], c[1], 0.0])), "{}: corner {c:?}", fr.name);
-            }
-            let area = ConvexPolygon::new(h.clone()).area_vector();
-            assert!(dot(&area, &n) > 0.0, "{}: turns against the normal", fr.name);
-            assert!(
-                (norm(&area) - fr.area(16.0)).abs() <= 1e-9 * fr.area(16.0),
-                "{}",
-                fr.name
-            );
-            if fr.name == "identity" {
-                assert_eq!(h.len(), 4, "{h:?}");
-            }
-            let mut shuffled = pts.clone();
-            for i in (1..shuffled.len()).rev() {
-                shuffled.swap(i, (rng.next_u64() % (i as u64 + 1)) as usize);
-            }
-            assert_eq!(coplanar_hull(shuffled, &n), h, "{}", fr.name);
-            let flipped = coplanar_hull(pts, &[-n[0], -n[1], -n[2]]);
-            assert_eq!(flipped.len(), h.len());
-            assert!(dot(&ConvexPolygon::new(flipped).area_vector(), &n) < 0.0);
-        }
-        assert!(coplanar_hull(vec![[0.0; 3]; 3], &[0.0; 3]).is_empty());
-        let line = coplanar_hull(
-            vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]],
-            &[0.0, 0.0, 1.0],
-        );
-        assert_eq!(line, vec![[0.0, 0.0, 0.0], [2.0, 0.0, 0.0]]);
     }
 }
