@@ -1525,23 +1525,30 @@ fn section(cx: &CellComplex, c: &mut Comp, frame: &Frame) -> f64 {
 /// (`sliced_section_skips_only_members_that_add_nothing` compares with the plain sum).
 fn sliced_section(cx: &CellComplex, c: &Comp, frame: &Frame, k: usize) -> f64 {
     // Each member's (lowest, highest) vertex height, and whether a height is NaN (then it
-    // is never skipped).
-    let ranges: Vec<(f64, f64, bool)> = c
-        .members
-        .iter()
-        .map(|&m| {
-            let (mut lo, mut hi, mut nan) = (f64::INFINITY, f64::NEG_INFINITY, false);
-            for f in cx.cells[m as usize].faces().iter() {
-                for v in &f.verts {
-                    let h = height(frame, v);
-                    lo = lo.min(h);
-                    hi = hi.max(h);
-                    nan |= h.is_nan();
-                }
-            }
-            (lo, hi, nan)
-        })
-        .collect();
+    // is never skipped). A tetrahedron's vertices are its four corners (its faces, built
+    // on the stack, list each three times); a large component's members in parallel, in
+    // their order. (On a real level's 240k-cell component these ranges were 40% of the
+    // run, recomputed at every judgement of the gate.)
+    let range = |&m: &u32| {
+        let (mut lo, mut hi, mut nan) = (f64::INFINITY, f64::NEG_INFINITY, false);
+        let mut see = |v: &[f64; 3]| {
+            let h = height(frame, v);
+            lo = lo.min(h);
+            hi = hi.max(h);
+            nan |= h.is_nan();
+        };
+        let cell = &cx.cells[m as usize];
+        match cell.tet_shape() {
+            Some(t) => t.corners.iter().for_each(&mut see),
+            None => cell.faces().iter().flat_map(|f| f.verts.iter()).for_each(&mut see),
+        }
+        (lo, hi, nan)
+    };
+    let ranges: Vec<(f64, f64, bool)> = if c.members.len() >= PARALLEL_MEMBERS {
+        c.members.par_iter().with_min_len(256).map(range).collect()
+    } else {
+        c.members.iter().map(range).collect()
+    };
     let lo = ranges.iter().fold(f64::INFINITY, |a, r| a.min(r.0));
     let hi = ranges.iter().fold(f64::NEG_INFINITY, |a, r| a.max(r.1));
     if hi.partial_cmp(&lo) != Some(Ordering::Greater) || k == 0 {
