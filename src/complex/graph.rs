@@ -6,6 +6,11 @@ use crate::geom::ConvexPolygon;
 use crate::ids::CellId;
 use rayon::prelude::*;
 use std::collections::{HashMap, VecDeque};
+use std::rc::Rc;
+
+/// The open pieces of the patches the walks through flat cells met, by patch
+/// ([`CellComplex::open_pieces`], computed once each; shared with the walk that reads them).
+type OpenMemo = HashMap<u32, Rc<Vec<ConvexPolygon>>>;
 
 /// The portal of each cell pair, by (lower id, higher id): looked up only, never iterated,
 /// so its hasher (Fx, a multiply per id, instead of SipHash: millions of pairs at a million
@@ -342,7 +347,7 @@ impl CellComplex {
         // again and again (every membrane of a stack from every cell below it: a real level's
         // overlapping floors spent 19 s subtracting the same occluders), so each is computed
         // once here.
-        let mut open_of: HashMap<u32, std::rc::Rc<Vec<ConvexPolygon>>> = HashMap::new();
+        let mut open_of: OpenMemo = HashMap::new();
         for (f, cell) in self.alive_cells().filter(|(c, _)| membrane[c.idx()]) {
             let Some(n) = cell
                 .faces()
@@ -365,13 +370,9 @@ impl CellComplex {
     }
 
     /// [`CellComplex::open_pieces`] of patch `t`, once per patch in `memo`.
-    fn open_cached(
-        &self,
-        t: u32,
-        memo: &mut HashMap<u32, std::rc::Rc<Vec<ConvexPolygon>>>,
-    ) -> std::rc::Rc<Vec<ConvexPolygon>> {
+    fn open_cached(&self, t: u32, memo: &mut OpenMemo) -> Rc<Vec<ConvexPolygon>> {
         memo.entry(t)
-            .or_insert_with(|| std::rc::Rc::new(self.open_pieces(PatchId(t)).0))
+            .or_insert_with(|| Rc::new(self.open_pieces(PatchId(t)).0))
             .clone()
     }
 
@@ -410,7 +411,7 @@ impl CellComplex {
         max_depth: usize,
         links: &mut Vec<Link>,
         hull: &mut Vec<(CellId, [f64; 3])>,
-        open_of: &mut HashMap<u32, std::rc::Rc<Vec<ConvexPolygon>>>,
+        open_of: &mut OpenMemo,
     ) {
         // Frames: (membrane, region reaching it, its faces up, next face to visit).
         let mut stack = vec![(f, region.to_vec(), self.flat_faces(f, n, true), 0usize)];
