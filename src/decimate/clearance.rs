@@ -1462,7 +1462,47 @@ fn shadow(cx: &CellComplex, portals: &[u32], frame: &Frame) -> f64 {
 struct LazyHull {
     hull: Hull3,
     pending: Vec<u32>,
+    /// The parallel cuts of the last few frames the gate judged the component on
+    /// ([`SliceMemo`]; kept here because only components with a hull are ever cut).
+    slices: Vec<SliceMemo>,
 }
+
+/// What [`sliced_section`] learnt about a component along one frame, for the next
+/// judgement on the same frame (a kept pair is judged again every time either side grows:
+/// on a real level a 20k–80k-cell component was cut along one frame 953 times, growing by a
+/// cell or two between judgements, and recomputing every member's heights and cuts was
+/// most of the run).
+///
+/// Valid for the first `ranges.len()` members as listed at the judgement; members are only
+/// ever appended after them ([`Comp::absorb_members`] moves the memo of the list that stays
+/// first and drops the other), so later judgements extend it with the new members only.
+/// Every value is the one the plain computation gives: the component's extent is an exact
+/// min/max, a cut's sum continues in the members' order from where it stopped (the same
+/// additions), and the per-member ranges only decide which members are skipped, so they
+/// are kept in `f32` rounded outwards (a member visited needlessly adds exactly 0).
+#[derive(Clone, Debug, Default)]
+struct SliceMemo {
+    /// The frame's normal, axes and origin, as bits.
+    frame: [u64; 12],
+    /// Each member's (lowest, highest) vertex height, rounded outwards; (-inf, inf) when a
+    /// height is NaN (never skipped).
+    ranges: Vec<(f32, f32)>,
+    /// The exact extent of those members along the normal.
+    lo: f64,
+    hi: f64,
+    /// The cuts' partial sums over the first `summed` members, at the heights given by
+    /// `cut_at` (the extent and the number of cuts they were taken for).
+    sums: Vec<f64>,
+    summed: usize,
+    cut_at: (u64, u64, usize),
+}
+
+/// Frames a component's [`SliceMemo`]s are kept for (the least recently used is dropped).
+const SLICE_MEMO_FRAMES: usize = 16;
+
+/// Components with fewer members have their cuts computed afresh at each judgement (cheap,
+/// and most components never reach this size).
+const SLICE_MEMO_MEMBERS: usize = 1024;
 
 /// The hull of two merged components, each given as (its hull if computed, its members):
 /// both hulls merged (the other's pending cells carried over), or the one hull with the
@@ -1488,7 +1528,20 @@ impl Comp {
     /// Takes `o`'s members (the longer list keeps its allocation) and its hull
     /// ([`merged_hull`]).
     fn absorb_members(&mut self, o: &mut Comp) {
+        // The list that stays first keeps its cuts' memos (the other's are no prefix).
+        let first = if self.members.len() < o.members.len() {
+            &mut o.hull
+        } else {
+            &mut self.hull
+        };
+        let memos = first
+            .as_mut()
+            .map(|h| std::mem::take(&mut h.slices))
+            .unwrap_or_default();
         self.hull = merged_hull((self.hull.take(), &self.members), (o.hull.take(), &o.members));
+        if let Some(h) = self.hull.as_mut() {
+            h.slices = memos;
+        }
         if self.members.len() < o.members.len() {
             std::mem::swap(&mut self.members, &mut o.members);
         }
@@ -1503,6 +1556,7 @@ fn section(cx: &CellComplex, c: &mut Comp, frame: &Frame) -> f64 {
         Box::new(LazyHull {
             hull: Hull3::new(&vertices(&c.members)),
             pending: Vec::new(),
+            slices: Vec::new(),
         })
     });
     if !lazy.pending.is_empty() {
@@ -1523,12 +1577,76 @@ fn section(cx: &CellComplex, c: &mut Comp, frame: &Frame) -> f64 {
 /// has no crossing edge and adds exactly 0 there, so it is skipped: each member's height
 /// range is taken once, and a cut visits only the members it crosses
 /// (`sliced_section_skips_only_members_that_add_nothing` compares with the plain sum).
-fn sliced_section(cx: &CellComplex, c: &Comp, frame: &Frame, k: usize) -> f64 {
-    // Each member's (lowest, highest) vertex height, and whether a height is NaN (then it
-    // is never skipped). A tetrahedron's vertices are its four corners (its faces, built
-    // on the stack, list each three times); a large component's members in parallel, in
-    // their order. (On a real level's 240k-cell component these ranges were 40% of the
-    // run, recomputed at every judgement of the gate.)
+fn sliced_section(cx: &CellComplex, c: &mut Comp, frame: &Frame, k: usize) -> f64 {
+    sliced_section_memo_from(cx, c, frame, k, SLICE_MEMO_MEMBERS)
+}
+
+/// [`sliced_section`], memoized ([`SliceMemo`]) for a component of `memo_from` or more
+/// members that has a hull (the same value either way).
+fn sliced_section_memo_from(cx: &CellComplex, c: &mut Comp, frame: &Frame, k: usize, memo_from: usize) -> f64 {
+    let Comp { members, hull, .. } = c;
+    let Some(lazy) = hull.as_mut().filter(|_| members.len() >= memo_from) else {
+        return sliced_plain(cx, members, frame, k);
+    };
+    let key = [frame.n, frame.u, frame.v, frame.o].concat();
+    let key: [u64; 12] = std::array::from_fn(|i| key[i].to_bits());
+    let mut memo = match lazy.slices.iter().position(|m| m.frame == key) {
+        Some(i) => lazy.slices.remove(i),
+        None => SliceMemo {
+            frame: key,
+            lo: f64::INFINITY,
+            hi: f64::NEG_INFINITY,
+            ..SliceMemo::default()
+        },
+    };
+    // The new members' ranges; the extent as the plain fold over all members gives it.
+    let fresh = member_ranges(cx, &members[memo.ranges.len()..], frame);
+    for r in fresh {
+        memo.lo = memo.lo.min(r.0);
+        memo.hi = memo.hi.max(r.1);
+        memo.ranges.push(outward(r));
+    }
+    let (lo, hi) = (memo.lo, memo.hi);
+    let value = if hi.partial_cmp(&lo) != Some(Ordering::Greater) || k == 0 {
+        0.0
+    } else {
+        let cut_at = (lo.to_bits(), hi.to_bits(), k);
+        if memo.cut_at != cut_at || memo.sums.len() != k {
+            memo.cut_at = cut_at;
+            memo.sums = vec![0.0; k];
+            memo.summed = 0;
+        }
+        let from = memo.summed;
+        let (todo, ranges) = (&members[from..], &memo.ranges[from..]);
+        let slice = |(i, &start): (usize, &f64)| {
+            let t = lo + (hi - lo) * (i as f64 + 0.5) / k as f64;
+            let (mut pts, mut hull) = (Vec::new(), Vec::new());
+            let mut sum = start;
+            for (&m, &(a, b)) in todo.iter().zip(ranges) {
+                if f64::from(b) < t || f64::from(a) >= t {
+                    continue;
+                }
+                sum += cut_area_with(&cx.cells[m as usize], frame, t, &mut pts, &mut hull);
+            }
+            sum
+        };
+        memo.sums = if todo.len() >= PARALLEL_MEMBERS {
+            memo.sums.par_iter().enumerate().with_max_len(1).map(slice).collect()
+        } else {
+            memo.sums.iter().enumerate().map(slice).collect()
+        };
+        memo.summed = members.len();
+        memo.sums.iter().copied().fold(0.0, f64::max)
+    };
+    lazy.slices.insert(0, memo);
+    lazy.slices.truncate(SLICE_MEMO_FRAMES);
+    value
+}
+
+/// Each member's (lowest, highest) vertex height, and whether a height is NaN (then it is
+/// never skipped). A tetrahedron's vertices are its four corners (its faces, built on the
+/// stack, list each three times); many members in parallel, in their order.
+fn member_ranges(cx: &CellComplex, members: &[u32], frame: &Frame) -> Vec<(f64, f64, bool)> {
     let range = |&m: &u32| {
         let (mut lo, mut hi, mut nan) = (f64::INFINITY, f64::NEG_INFINITY, false);
         let mut see = |v: &[f64; 3]| {
@@ -1544,11 +1662,34 @@ fn sliced_section(cx: &CellComplex, c: &Comp, frame: &Frame, k: usize) -> f64 {
         }
         (lo, hi, nan)
     };
-    let ranges: Vec<(f64, f64, bool)> = if c.members.len() >= PARALLEL_MEMBERS {
-        c.members.par_iter().with_min_len(256).map(range).collect()
+    if members.len() >= PARALLEL_MEMBERS {
+        members.par_iter().with_min_len(256).map(range).collect()
     } else {
-        c.members.iter().map(range).collect()
-    };
+        members.iter().map(range).collect()
+    }
+}
+
+/// A member's height range in `f32`, rounded outwards (-inf, inf when a height is NaN):
+/// a member skipped by it is skipped by the exact range.
+fn outward((lo, hi, nan): (f64, f64, bool)) -> (f32, f32) {
+    if nan {
+        return (f32::NEG_INFINITY, f32::INFINITY);
+    }
+    let (mut a, mut b) = (lo as f32, hi as f32);
+    if f64::from(a) > lo {
+        a = a.next_down();
+    }
+    if f64::from(b) < hi {
+        b = b.next_up();
+    }
+    (a, b)
+}
+
+/// [`sliced_section`] without a memo.
+fn sliced_plain(cx: &CellComplex, members: &[u32], frame: &Frame, k: usize) -> f64 {
+    // (On a real level's 240k-cell component the ranges were 40% of the run, recomputed at
+    // every judgement of the gate; [`SliceMemo`] keeps them for large components.)
+    let ranges = member_ranges(cx, members, frame);
     let lo = ranges.iter().fold(f64::INFINITY, |a, r| a.min(r.0));
     let hi = ranges.iter().fold(f64::NEG_INFINITY, |a, r| a.max(r.1));
     if hi.partial_cmp(&lo) != Some(Ordering::Greater) || k == 0 {
@@ -1560,7 +1701,7 @@ fn sliced_section(cx: &CellComplex, c: &Comp, frame: &Frame, k: usize) -> f64 {
         let t = lo + (hi - lo) * (i as f64 + 0.5) / k as f64;
         let (mut pts, mut hull) = (Vec::new(), Vec::new());
         let mut sum = 0.0;
-        for (&m, &(a, b, nan)) in c.members.iter().zip(&ranges) {
+        for (&m, &(a, b, nan)) in members.iter().zip(&ranges) {
             if !nan && (b - t < 0.0 || a - t >= 0.0) {
                 continue;
             }
@@ -1568,7 +1709,7 @@ fn sliced_section(cx: &CellComplex, c: &Comp, frame: &Frame, k: usize) -> f64 {
         }
         sum
     };
-    let areas: Vec<f64> = if c.members.len() >= PARALLEL_MEMBERS {
+    let areas: Vec<f64> = if members.len() >= PARALLEL_MEMBERS {
         (0..k).into_par_iter().with_max_len(1).map(slice).collect()
     } else {
         (0..k).map(slice).collect()
@@ -2194,9 +2335,9 @@ fn merge<I: Ids>(
             if let Some(g) = gated.filter(|g| kept && g.slices > 0) {
                 // Cuts parallel to the portal, the smaller projection first.
                 let (first, second) = if pa <= pb { (a, b) } else { (b, a) };
-                let s1 = sliced_section(cx, &comps[first], &frame, g.slices);
+                let s1 = sliced_section(cx, &mut comps[first], &frame, g.slices);
                 let s2 = if s1 >= g.ratio * opening(&g) {
-                    sliced_section(cx, &comps[second], &frame, g.slices)
+                    sliced_section(cx, &mut comps[second], &frame, g.slices)
                 } else {
                     f64::INFINITY
                 };
@@ -3332,7 +3473,7 @@ mod tests {
             let mut groups = vec![active.clone()];
             groups.extend(active.chunks(active.len() / 5 + 1).map(<[u32]>::to_vec));
             for (gi, members) in groups.into_iter().enumerate() {
-                let c = Comp {
+                let mut c = Comp {
                     members: members.into(),
                     ..Comp::default()
                 };
@@ -3343,7 +3484,10 @@ mod tests {
                     let o = cx.cells[c.members[0] as usize].centroid();
                     let frame = Frame::new(crate::base::vec::normalize(&n), o).unwrap();
                     for k in [1, 5, 7] {
-                        let (got, want) = (sliced_section(&cx, &c, &frame, k), reference_sliced(&cx, &c, &frame, k));
+                        let (got, want) = (
+                            sliced_section(&cx, &mut c, &frame, k),
+                            reference_sliced(&cx, &c, &frame, k),
+                        );
                         assert_eq!(
                             got.to_bits(),
                             want.to_bits(),
@@ -3355,6 +3499,81 @@ mod tests {
             }
         }
         assert!(compared > 20, "{compared}");
+    }
+
+    #[test]
+    fn memoized_cuts_equal_fresh_ones_as_a_component_grows() {
+        // A component grown by absorbing runs of cells (absorbing and absorbed in turn, so
+        // the memo travels with the list that stays first and is dropped with the other),
+        // judged on frames taken in turn from more than the memo keeps, with the number of
+        // cuts changing: every value equal to the plain sum's bits.
+        let mut compared = 0;
+        for (name, cx) in complexes() {
+            let active: Vec<u32> = cx.active_cells().map(|(id, _)| id.0).collect();
+            let frames: Vec<Frame> = (0..SLICE_MEMO_FRAMES + 4)
+                .map(|i| {
+                    let a = i as f64 * 0.7;
+                    let o = cx.cells[active[(i * 37) % active.len()] as usize].centroid();
+                    Frame::new(normalize(&[a.cos(), a.sin(), 0.3 - 0.1 * i as f64]), o).unwrap()
+                })
+                .collect();
+            let mut c = Comp {
+                members: vec![active[0]].into(),
+                ..Comp::default()
+            };
+            let (mut next, mut step, mut judged) = (1, 0usize, 0usize);
+            while next < active.len() {
+                // Runs of 1-6 cells, and now and then one longer than the component.
+                let run = if step % 10 == 9 {
+                    c.members.len() + 1
+                } else {
+                    1 + step % 6
+                };
+                step += 1;
+                let end = (next + run).min(active.len());
+                let mut o = Comp {
+                    members: active[next..end].to_vec().into(),
+                    ..Comp::default()
+                };
+                if step % 5 == 3 {
+                    // The run's own hull, and a memo of its own that must not survive
+                    // when it is absorbed after the longer list.
+                    section(&cx, &mut o, &frames[0]);
+                    sliced_section_memo_from(&cx, &mut o, &frames[0], 5, 1);
+                }
+                if step % 2 == 0 {
+                    c.absorb_members(&mut o);
+                } else {
+                    o.absorb_members(&mut c);
+                    c = o;
+                }
+                next = end;
+                for _ in 0..3 {
+                    // Mostly three frames again and again, now and then one of the others
+                    // (more of them than the memo keeps); now and then another cut count.
+                    let f = if judged % 7 == 6 {
+                        3 + (judged / 7) % (frames.len() - 3)
+                    } else {
+                        judged % 3
+                    };
+                    let (frame, k) = (&frames[f], if judged % 11 == 10 { 7 } else { 5 });
+                    judged += 1;
+                    section(&cx, &mut c, frame);
+                    let got = sliced_section_memo_from(&cx, &mut c, frame, k, 1);
+                    let want = reference_sliced(&cx, &c, frame, k);
+                    assert_eq!(
+                        got.to_bits(),
+                        want.to_bits(),
+                        "{name}: {} members, judgement {judged}",
+                        c.members.len()
+                    );
+                    compared += (got > 0.0) as usize;
+                }
+            }
+            let memos = c.hull.as_ref().map_or(0, |h| h.slices.len());
+            assert!((1..=SLICE_MEMO_FRAMES).contains(&memos), "{name}: {memos} memos");
+        }
+        assert!(compared > 100, "{compared}");
     }
 
     use crate::geom::ConvexPolyhedron;
