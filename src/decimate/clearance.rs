@@ -1582,42 +1582,57 @@ fn sliced_section(cx: &CellComplex, c: &mut Comp, frame: &Frame, k: usize) -> f6
 }
 
 /// [`sliced_section`], memoized ([`SliceMemo`]) for a component of `memo_from` or more
-/// members that has a hull (the same value either way).
+/// members that has a hull; a smaller one is cut with a fresh memo that is not kept (the
+/// same value either way).
 fn sliced_section_memo_from(cx: &CellComplex, c: &mut Comp, frame: &Frame, k: usize, memo_from: usize) -> f64 {
     let Comp { members, hull, .. } = c;
-    let Some(lazy) = hull.as_mut().filter(|_| members.len() >= memo_from) else {
-        return sliced_plain(cx, members, frame, k);
-    };
     let key = [frame.n, frame.u, frame.v, frame.o].concat();
     let key: [u64; 12] = std::array::from_fn(|i| key[i].to_bits());
-    let mut memo = match lazy.slices.iter().position(|m| m.frame == key) {
-        Some(i) => lazy.slices.remove(i),
-        None => SliceMemo {
-            frame: key,
-            lo: f64::INFINITY,
-            hi: f64::NEG_INFINITY,
-            ..SliceMemo::default()
-        },
-    };
-    // The new members' ranges; the extent as the plain fold over all members gives it.
-    let fresh = member_ranges(cx, &members[memo.ranges.len()..], frame);
-    for r in fresh {
-        memo.lo = memo.lo.min(r.0);
-        memo.hi = memo.hi.max(r.1);
-        memo.ranges.push(outward(r));
+    let mut store = hull
+        .as_mut()
+        .filter(|_| members.len() >= memo_from)
+        .map(|h| &mut h.slices);
+    let found = store
+        .as_mut()
+        .and_then(|s| s.iter().position(|m| m.frame == key).map(|i| s.remove(i)));
+    let mut memo = found.unwrap_or_else(|| SliceMemo {
+        frame: key,
+        lo: f64::INFINITY,
+        hi: f64::NEG_INFINITY,
+        ..SliceMemo::default()
+    });
+    let value = memo.extend(cx, members, frame, k);
+    if let Some(s) = store {
+        s.insert(0, memo);
+        s.truncate(SLICE_MEMO_FRAMES);
     }
-    let (lo, hi) = (memo.lo, memo.hi);
-    let value = if hi.partial_cmp(&lo) != Some(Ordering::Greater) || k == 0 {
-        0.0
-    } else {
-        let cut_at = (lo.to_bits(), hi.to_bits(), k);
-        if memo.cut_at != cut_at || memo.sums.len() != k {
-            memo.cut_at = cut_at;
-            memo.sums = vec![0.0; k];
-            memo.summed = 0;
+    value
+}
+
+impl SliceMemo {
+    /// Brings the memo up to `members` (its ranges and extent, and its cuts' sums, redone
+    /// from the ranges when the extent or the number of cuts changed) and returns the
+    /// largest cut. Each cut's area is summed by one task in the members' order, so the
+    /// value does not depend on the thread count; many members' cuts run in parallel.
+    fn extend(&mut self, cx: &CellComplex, members: &[u32], frame: &Frame, k: usize) -> f64 {
+        // The new members' ranges; the extent as the plain fold over all members gives it.
+        for r in member_ranges(cx, &members[self.ranges.len()..], frame) {
+            self.lo = self.lo.min(r.0);
+            self.hi = self.hi.max(r.1);
+            self.ranges.push(outward(r));
         }
-        let from = memo.summed;
-        let (todo, ranges) = (&members[from..], &memo.ranges[from..]);
+        let (lo, hi) = (self.lo, self.hi);
+        if hi.partial_cmp(&lo) != Some(Ordering::Greater) || k == 0 {
+            return 0.0;
+        }
+        let cut_at = (lo.to_bits(), hi.to_bits(), k);
+        if self.cut_at != cut_at || self.sums.len() != k {
+            self.cut_at = cut_at;
+            self.sums = vec![0.0; k];
+            self.summed = 0;
+        }
+        let from = self.summed;
+        let (todo, ranges) = (&members[from..], &self.ranges[from..]);
         let slice = |(i, &start): (usize, &f64)| {
             let t = lo + (hi - lo) * (i as f64 + 0.5) / k as f64;
             let (mut pts, mut hull) = (Vec::new(), Vec::new());
@@ -1630,17 +1645,14 @@ fn sliced_section_memo_from(cx: &CellComplex, c: &mut Comp, frame: &Frame, k: us
             }
             sum
         };
-        memo.sums = if todo.len() >= PARALLEL_MEMBERS {
-            memo.sums.par_iter().enumerate().with_max_len(1).map(slice).collect()
+        self.sums = if todo.len() >= PARALLEL_MEMBERS {
+            self.sums.par_iter().enumerate().with_max_len(1).map(slice).collect()
         } else {
-            memo.sums.iter().enumerate().map(slice).collect()
+            self.sums.iter().enumerate().map(slice).collect()
         };
-        memo.summed = members.len();
-        memo.sums.iter().copied().fold(0.0, f64::max)
-    };
-    lazy.slices.insert(0, memo);
-    lazy.slices.truncate(SLICE_MEMO_FRAMES);
-    value
+        self.summed = members.len();
+        self.sums.iter().copied().fold(0.0, f64::max)
+    }
 }
 
 /// Each member's (lowest, highest) vertex height, and whether a height is NaN (then it is
@@ -1683,38 +1695,6 @@ fn outward((lo, hi, nan): (f64, f64, bool)) -> (f32, f32) {
         b = b.next_up();
     }
     (a, b)
-}
-
-/// [`sliced_section`] without a memo.
-fn sliced_plain(cx: &CellComplex, members: &[u32], frame: &Frame, k: usize) -> f64 {
-    // (On a real level's 240k-cell component the ranges were 40% of the run, recomputed at
-    // every judgement of the gate; [`SliceMemo`] keeps them for large components.)
-    let ranges = member_ranges(cx, members, frame);
-    let lo = ranges.iter().fold(f64::INFINITY, |a, r| a.min(r.0));
-    let hi = ranges.iter().fold(f64::NEG_INFINITY, |a, r| a.max(r.1));
-    if hi.partial_cmp(&lo) != Some(Ordering::Greater) || k == 0 {
-        return 0.0;
-    }
-    // Each cut's area is summed by one task in the members' order, so the value does not
-    // depend on the thread count; cuts of a large component run in parallel (rayon).
-    let slice = |i: usize| {
-        let t = lo + (hi - lo) * (i as f64 + 0.5) / k as f64;
-        let (mut pts, mut hull) = (Vec::new(), Vec::new());
-        let mut sum = 0.0;
-        for (&m, &(a, b, nan)) in members.iter().zip(&ranges) {
-            if !nan && (b - t < 0.0 || a - t >= 0.0) {
-                continue;
-            }
-            sum += cut_area_with(&cx.cells[m as usize], frame, t, &mut pts, &mut hull);
-        }
-        sum
-    };
-    let areas: Vec<f64> = if members.len() >= PARALLEL_MEMBERS {
-        (0..k).into_par_iter().with_max_len(1).map(slice).collect()
-    } else {
-        (0..k).map(slice).collect()
-    };
-    areas.into_iter().fold(0.0, f64::max)
 }
 
 /// Components with at least this many cells have their gate's geometry (parallel cuts,

@@ -181,16 +181,17 @@ impl Hull3 {
     /// The hull of this hull's extreme points along the axes and the cube's diagonals (a
     /// polytope inside this hull, which only grows), or `None` when they are coplanar.
     fn inner(&self) -> Option<Hull3> {
-        let mut dirs = vec![[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-        for i in 0..4 {
-            dirs.push([
-                1.0,
-                if i & 1 == 0 { 1.0 } else { -1.0 },
-                if i & 2 == 0 { 1.0 } else { -1.0 },
-            ]);
-        }
-        let mut ids = Vec::with_capacity(2 * dirs.len());
-        for d in &dirs {
+        const DIRS: [[f64; 3]; 7] = [
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [1.0, 1.0, 1.0],
+            [1.0, -1.0, 1.0],
+            [1.0, 1.0, -1.0],
+            [1.0, -1.0, -1.0],
+        ];
+        let mut ids = Vec::with_capacity(2 * DIRS.len());
+        for d in &DIRS {
             for sign in [1.0, -1.0] {
                 let at = |i: usize| sign * dot(d, &self.pts[i]);
                 let best = (0..self.pts.len()).fold(0, |b, i| if at(i) > at(b) { i } else { b });
