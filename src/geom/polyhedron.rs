@@ -354,7 +354,10 @@ impl ConvexPolyhedron {
                 (c, false) => c,
                 (_, true) => match self.cut_within(&Classifier::with_eps(plane, 0.0), plane, tol, new_tag) {
                     (c, false) => c,
-                    (c, true) => self.cut_in_gaps(plane, tol, new_tag).unwrap_or(c),
+                    (c, true) => self
+                        .cut_in_gaps(plane, tol, new_tag)
+                        .or_else(|| self.cut_settling_runs(plane, tol, new_tag))
+                        .unwrap_or(c),
                 },
             },
         }
@@ -375,6 +378,76 @@ impl ConvexPolyhedron {
         for eps in self.gap_bands(plane, tol) {
             if let (c, false) = self.cut_within(&Classifier::with_eps(plane, eps), plane, tol, new_tag) {
                 return Some(c);
+            }
+        }
+        None
+    }
+
+    /// The fallback of [`cut`](Self::cut) after every band failed: a face holding a run of
+    /// two or more On vertices between a Front and a Back vertex (a plane through a tiny
+    /// edge, far below the weld distance, of a face it crosses: the run's vertices lie on
+    /// the plane within rounding) puts the run's edges into both of its parts, so no band
+    /// makes the pieces conforming. The plane meets that face along a chord ending at one
+    /// vertex of the run; the run's vertices before it go to the side of the vertex before
+    /// the run, those after it to the side after, as a neighbour's face is split along a
+    /// chord ([`split_face_along`](Self::split_face_along)), so the neighbours, given the
+    /// section, split their faces the same way. Each choice of chord end (up to
+    /// [`SETTLE_CHOICES`] combinations over the runs found) is tried in order, with each
+    /// band; the first whose pieces are valid wins. Only reached where every other
+    /// attempt left the cell unsplit.
+    fn cut_settling_runs(&self, plane: &Plane, tol: &Tolerances, new_tag: u32) -> Option<Cut> {
+        for eps in [tol.plane_abs(), tol.snap_abs(), 0.0] {
+            let cl = Classifier::with_eps(plane, eps);
+            let (faces, pos, dist) = self.vertex_table(&cl);
+            let sides: Vec<Side> = dist.iter().map(|&d| cl.side_of(d)).collect();
+            // The runs: vertex indices in face order, with the sides before and after.
+            let mut runs: Vec<(Vec<u32>, Side, Side)> = Vec::new();
+            for f in &faces {
+                let n = f.len();
+                let Some(start) = (0..n).find(|&k| sides[f[k] as usize] != Side::On) else {
+                    continue;
+                };
+                let mut k = 0;
+                while k < n {
+                    let a = (start + k) % n;
+                    if sides[f[a] as usize] != Side::On {
+                        k += 1;
+                        continue;
+                    }
+                    let mut len = 0;
+                    while sides[f[(a + len) % n] as usize] == Side::On {
+                        len += 1;
+                    }
+                    let (before, after) = (sides[f[(a + n - 1) % n] as usize], sides[f[(a + len) % n] as usize]);
+                    if len >= 2 && before != after {
+                        let run: Vec<u32> = (0..len).map(|r| f[(a + r) % n]).collect();
+                        if !runs.iter().any(|(r, _, _)| r.iter().any(|v| run.contains(v))) {
+                            runs.push((run, before, after));
+                        }
+                    }
+                    k += len;
+                }
+            }
+            let combos: usize = runs.iter().map(|(r, _, _)| r.len()).product();
+            if runs.is_empty() || combos > SETTLE_CHOICES {
+                continue;
+            }
+            for mut c in 0..combos {
+                let mut s2 = sides.clone();
+                for (run, before, after) in &runs {
+                    let h = c % run.len();
+                    c /= run.len();
+                    for (r, &v) in run.iter().enumerate() {
+                        if r < h {
+                            s2[v as usize] = *before;
+                        } else if r > h {
+                            s2[v as usize] = *after;
+                        }
+                    }
+                }
+                if let (cut, false) = self.cut_with_sides(&faces, pos.clone(), &dist, s2, &cl, plane, tol, new_tag) {
+                    return Some(cut);
+                }
             }
         }
         None
@@ -448,11 +521,11 @@ impl ConvexPolyhedron {
 
     /// [`cut`](Self::cut) with one classifier; the flag is true when the cut was refused
     /// only because its pieces would not have been valid.
-    fn cut_within(&self, cl: &Classifier, plane: &Plane, tol: &Tolerances, new_tag: u32) -> (Cut, bool) {
-        let eps = cl.eps;
-        // The vertex table: each distinct vertex (exact bits) once, with its one distance.
-        // Faces become index cycles, so every decision below is made once per vertex or
-        // per edge and both faces along an edge, and both pieces, see the same answer.
+    /// The vertex table of a cut: each distinct vertex (exact bits) once, with its one
+    /// distance; faces as index cycles, so every decision of the cut is made once per
+    /// vertex or per edge and both faces along an edge, and both pieces, see the same
+    /// answer. Returns (faces, positions, distances).
+    fn vertex_table(&self, cl: &Classifier) -> VertexTable {
         let mut index: HashMap<Key, u32> = HashMap::new();
         let mut pos: Vec<P3> = Vec::new();
         let mut dist: Vec<f64> = Vec::new();
@@ -472,8 +545,31 @@ impl ConvexPolyhedron {
                     .collect()
             })
             .collect();
+        (faces, pos, dist)
+    }
+
+    fn cut_within(&self, cl: &Classifier, plane: &Plane, tol: &Tolerances, new_tag: u32) -> (Cut, bool) {
+        let (faces, pos, dist) = self.vertex_table(cl);
+        let sides: Vec<Side> = dist.iter().map(|&d| cl.side_of(d)).collect();
+        self.cut_with_sides(&faces, pos, &dist, sides, cl, plane, tol, new_tag)
+    }
+
+    /// [`cut_within`](Self::cut_within) on a vertex table with the vertices' sides given.
+    #[allow(clippy::too_many_arguments)]
+    fn cut_with_sides(
+        &self,
+        faces: &[Vec<u32>],
+        pos: Vec<P3>,
+        dist: &[f64],
+        sides: Vec<Side>,
+        cl: &Classifier,
+        plane: &Plane,
+        tol: &Tolerances,
+        new_tag: u32,
+    ) -> (Cut, bool) {
+        let eps = cl.eps;
         let (mut maxf, mut maxb) = (0.0f64, 0.0f64);
-        for &d in &dist {
+        for &d in dist {
             maxf = maxf.max(d);
             maxb = maxb.max(-d);
         }
@@ -491,13 +587,12 @@ impl ConvexPolyhedron {
         // Faces lying on the plane (every vertex On) while the polyhedron straddles it go
         // whole to the piece their body lies in (by the face's outward normal); a sliver
         // face's normal may say nothing, so the opposite assignment is tried as well.
-        let sides: Vec<Side> = dist.iter().map(|&d| cl.side_of(d)).collect();
         let has_on_face = faces.iter().any(|f| f.iter().all(|&i| sides[i as usize] == Side::On));
         let attempt = self
-            .cut_topological(&faces, pos.clone(), &dist, cl, plane, tol, new_tag, false)
+            .cut_topological(faces, pos.clone(), dist, &sides, cl, plane, tol, new_tag, false)
             .or_else(|| {
                 has_on_face
-                    .then(|| self.cut_topological(&faces, pos, &dist, cl, plane, tol, new_tag, true))
+                    .then(|| self.cut_topological(faces, pos, dist, &sides, cl, plane, tol, new_tag, true))
                     .flatten()
             });
         match attempt {
@@ -530,13 +625,13 @@ impl ConvexPolyhedron {
         faces: &[Vec<u32>],
         mut pos: Vec<P3>,
         dist: &[f64],
+        sides: &[Side],
         cl: &Classifier,
         plane: &Plane,
         tol: &Tolerances,
         new_tag: u32,
         flip_on: bool,
     ) -> Option<PolyhedronSplit> {
-        let sides: Vec<Side> = dist.iter().map(|&d| cl.side_of(d)).collect();
         let mut bits: HashMap<Key, u32> = pos.iter().enumerate().map(|(i, p)| (key(p), i as u32)).collect();
         let mut xs: HashMap<(u32, u32), u32> = HashMap::new();
         let nf = faces.len();
@@ -747,6 +842,12 @@ impl ConvexPolyhedron {
         check_faces(&self.faces, self.tags.len(), tol)
     }
 }
+
+/// A cut's vertex table: faces as index cycles, vertex positions, signed distances.
+type VertexTable = (Vec<Vec<u32>>, Vec<P3>, Vec<f64>);
+
+/// Most combinations of chord ends [`ConvexPolyhedron::cut_settling_runs`] tries.
+const SETTLE_CHOICES: usize = 16;
 
 /// [`ConvexPolyhedron::check`] of a boundary given as faces (`ntags` tags).
 pub fn check_faces(faces: &[ConvexPolygon], ntags: usize, tol: &Tolerances) -> Result<(), String> {
@@ -1055,6 +1156,96 @@ mod tests {
     use super::super::testutil::{Frame, Rng, frames};
     use super::super::vec::norm;
     use super::*;
+
+    /// A cell of Nexuiz's `racetrack` (issue 16, session 33) that no On band could cut: the
+    /// plane of a terrain triangle passes through a 7e-5 edge (far below the weld distance
+    /// 1.8e-3) of a face it crosses, so that face has a run of two On vertices between a
+    /// Back and a Front vertex. Left unsplit, the triangle crossed the cell (2.5e3 of its
+    /// area) and the complex was invalid at the model's own tolerances. Settling the run
+    /// (one vertex the chord's end, the other on its side) splits it into valid pieces.
+    #[test]
+    fn a_plane_through_a_tiny_edge_of_a_crossed_face_still_cuts() {
+        let faces: Vec<Vec<P3>> = vec![
+            vec![
+                [-2210.927978515625, 318.7740173339844, 736.4159545898438],
+                [-2205.489494809718, 549.5914646357019, 691.3539805898995],
+                [-2208.708050870531, 538.2518368688224, 695.3546544952268],
+                [-2209.183626035592, 536.453600866162, 695.9679976453749],
+                [-2261.46464169336, 337.8286848073214, 763.5644177550556],
+                [-2261.4645793423415, 337.82866129809355, 763.5643842598814],
+            ],
+            vec![
+                [-2210.927978515625, 318.7740173339844, 736.4159545898438],
+                [-2223.2106015913355, 407.246260821558, 726.8983979464173],
+                [-2205.655908417168, 548.9859271900983, 691.5543190228906],
+                [-2205.489494809718, 549.5914646357019, 691.3539805898995],
+            ],
+            vec![
+                [-2210.927978515625, 318.7740173339844, 736.4159545898438],
+                [-2261.4645793423415, 337.82866129809355, 763.5643842598814],
+                [-2261.4589153912484, 337.822375320201, 763.5500885597766],
+                [-2236.0975836949624, 327.80627519165256, 748.6957760326708],
+            ],
+            vec![
+                [-2210.927978515625, 318.7740173339844, 736.4159545898438],
+                [-2236.0975836949624, 327.80627519165256, 748.6957760326708],
+                [-2233.191521378807, 326.6585668817346, 746.993674645237],
+            ],
+            vec![
+                [-2261.4589153912484, 337.822375320201, 763.5500885597766],
+                [-2261.4645793423415, 337.82866129809355, 763.5643842598814],
+                [-2261.46464169336, 337.8286848073214, 763.5644177550556],
+                [-2209.183626035592, 536.453600866162, 695.9679976453749],
+            ],
+            vec![
+                [-2208.708050870531, 538.2518368688224, 695.3546544952268],
+                [-2205.489494809718, 549.5914646357019, 691.3539805898995],
+                [-2205.655908417168, 548.9859271900983, 691.5543190228906],
+            ],
+            vec![
+                [-2210.927978515625, 318.7740173339844, 736.4159545898438],
+                [-2233.191521378807, 326.6585668817346, 746.993674645237],
+                [-2223.2106015913355, 407.246260821558, 726.8983979464173],
+            ],
+            vec![
+                [-2209.183626035592, 536.453600866162, 695.9679976453749],
+                [-2208.708050870531, 538.2518368688224, 695.3546544952268],
+                [-2205.655908417168, 548.9859271900983, 691.5543190228906],
+                [-2223.2106015913355, 407.246260821558, 726.8983979464173],
+                [-2233.191521378807, 326.6585668817346, 746.993674645237],
+                [-2236.0975836949624, 327.80627519165256, 748.6957760326708],
+                [-2261.4589153912484, 337.822375320201, 763.5500885597766],
+            ],
+        ];
+        let n = faces.len() as u32;
+        let cell = ConvexPolyhedron {
+            faces: faces.into_iter().map(ConvexPolygon::new).collect(),
+            tags: (0..n).collect(),
+        };
+        let tol = Tolerances::for_scale(18441.636292985288);
+        cell.check(&tol).expect("the cell is valid");
+        let plane = Plane {
+            n: [0.513686916246755, 0.16195445561825592, 0.8425535629159095],
+            d: -463.6280165569997,
+        };
+        // Every band fails on its own (the run of On vertices), as before the fallback.
+        for eps in [tol.plane_abs(), tol.snap_abs(), 0.0] {
+            assert!(cell.cut_within(&Classifier::with_eps(&plane, eps), &plane, &tol, n).1);
+        }
+        let Cut::Split(s) = cell.cut(&plane, &tol, n) else {
+            panic!("not split")
+        };
+        s.front.check(&tol).expect("front piece");
+        s.back.check(&tol).expect("back piece");
+        let (vf, vb, v) = (s.front.volume(), s.back.volume(), cell.volume());
+        // The pieces tile the cell up to the settled vertices' offsets from the plane
+        // (within the weld distance of it) over the section.
+        let slack = tol.weld_abs() * s.section.area();
+        assert!(
+            vf > 1.0 && vb > 1.0 && ((vf + vb) - v).abs() <= slack,
+            "{vf} + {vb} vs {v}"
+        );
+    }
 
     /// The apex has the same bits for every listing of a face, where the plain sum of its
     /// vertices in listing order does not (addition is not associative).
