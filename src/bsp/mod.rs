@@ -540,7 +540,7 @@ impl Builder<'_> {
         let mut cuts: Vec<(Cut, Tolerances)> = vec![(region.cut(&plane, &tol, new_patch), tol)];
         if region.classify(&plane, &tol) == Classification::Straddles {
             let relaxed = tol.sealing();
-            cuts.push((region.cut(&plane, &relaxed, new_patch), relaxed));
+            cuts.push((region.cut_sealing(&plane, &relaxed, new_patch), relaxed));
         }
         cuts.retain(|(c, _)| matches!(c, Cut::Split(_)));
         let n_cuts = cuts.len();

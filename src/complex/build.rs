@@ -690,7 +690,7 @@ impl CellComplex {
         }
         let relaxed = self.tol.sealing();
         let new_patch = self.patches.len() as u32;
-        let Cut::Split(s) = self.cells[c.idx()].poly().cut(&plane, &relaxed, new_patch) else {
+        let Cut::Split(s) = self.cells[c.idx()].poly().cut_sealing(&plane, &relaxed, new_patch) else {
             return None;
         };
         let section = &s.section;

@@ -813,7 +813,7 @@ fn crack_crossing(
         return None;
     }
     let relaxed = tol.sealing();
-    let Cut::Split(s) = cell.cut(plane, &relaxed, 0) else {
+    let Cut::Split(s) = cell.cut_sealing(plane, &relaxed, 0) else {
         return None;
     };
     // In the cutting plane's projection, with areas in that plane: the same coverage test
