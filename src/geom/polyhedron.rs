@@ -1262,6 +1262,8 @@ mod tests {
         for eps in [tol.plane_abs(), tol.snap_abs(), 0.0] {
             assert!(cell.cut_within(&Classifier::with_eps(&plane, eps), &plane, &tol, n).1);
         }
+        // A crack's cut does not settle (`cut_sealing`): the cell stays whole there.
+        assert!(!matches!(cell.cut_sealing(&plane, &tol, n), Cut::Split(_)));
         let Cut::Split(s) = cell.cut(&plane, &tol, n) else {
             panic!("not split")
         };
