@@ -423,7 +423,7 @@ impl ConvexPolyhedron {
                 maxb = maxb.max(-d);
             }
         }
-        if !(maxf.min(maxb) >= tol.sliver_width()) {
+        if maxf.min(maxb) < tol.sliver_width() {
             return None;
         }
         for eps in [tol.plane_abs(), tol.snap_abs(), 0.0] {
