@@ -414,48 +414,28 @@ impl ConvexPolyhedron {
     /// (settling such a cut made a 3e-12 sliver piece whose section the validation did
     /// count: greedy-4 under noise 1e-5).
     fn cut_settling_runs(&self, plane: &Plane, tol: &Tolerances, new_tag: u32) -> Option<Cut> {
-        let cl = Classifier::new(plane, tol);
+        // The distances do not depend on the band: one vertex table for every band.
+        let (faces, pos, dist) = self.vertex_table(&Classifier::new(plane, tol));
         let (mut maxf, mut maxb) = (0.0f64, 0.0f64);
-        for f in &self.faces {
-            for v in f.verts.iter() {
-                let d = cl.dist(v);
-                maxf = maxf.max(d);
-                maxb = maxb.max(-d);
-            }
+        for &d in &dist {
+            maxf = maxf.max(d);
+            maxb = maxb.max(-d);
         }
         if maxf.min(maxb) < tol.sliver_width() {
             return None;
         }
         for eps in [tol.plane_abs(), tol.snap_abs(), 0.0] {
             let cl = Classifier::with_eps(plane, eps);
-            let (faces, pos, dist) = self.vertex_table(&cl);
             let sides: Vec<Side> = dist.iter().map(|&d| cl.side_of(d)).collect();
-            // The runs: vertex indices in face order, with the sides before and after.
+            // The runs: their vertices in face order, with the sides before and after (a
+            // vertex in two faces' runs is settled by the first).
             let mut runs: Vec<(Vec<u32>, Side, Side)> = Vec::new();
             for f in &faces {
-                let n = f.len();
-                let Some(start) = (0..n).find(|&k| sides[f[k] as usize] != Side::On) else {
-                    continue;
-                };
-                let mut k = 0;
-                while k < n {
-                    let a = (start + k) % n;
-                    if sides[f[a] as usize] != Side::On {
-                        k += 1;
-                        continue;
+                for (a, len, before, after) in crossed_on_runs(f.len(), |k| sides[f[k] as usize]) {
+                    let run: Vec<u32> = (0..len).map(|r| f[(a + r) % f.len()]).collect();
+                    if !runs.iter().any(|(r, _, _)| r.iter().any(|v| run.contains(v))) {
+                        runs.push((run, before, after));
                     }
-                    let mut len = 0;
-                    while sides[f[(a + len) % n] as usize] == Side::On {
-                        len += 1;
-                    }
-                    let (before, after) = (sides[f[(a + n - 1) % n] as usize], sides[f[(a + len) % n] as usize]);
-                    if len >= 2 && before != after {
-                        let run: Vec<u32> = (0..len).map(|r| f[(a + r) % n]).collect();
-                        if !runs.iter().any(|(r, _, _)| r.iter().any(|v| run.contains(v))) {
-                            runs.push((run, before, after));
-                        }
-                    }
-                    k += len;
                 }
             }
             let combos: usize = runs.iter().map(|(r, _, _)| r.len()).product();
@@ -468,11 +448,7 @@ impl ConvexPolyhedron {
                     let h = c % run.len();
                     c /= run.len();
                     for (r, &v) in run.iter().enumerate() {
-                        if r < h {
-                            s2[v as usize] = *before;
-                        } else if r > h {
-                            s2[v as usize] = *after;
-                        }
+                        s2[v as usize] = settled(r, h, *before, *after);
                     }
                 }
                 if let (cut, false) = self.cut_with_sides(&faces, pos.clone(), &dist, s2, &cl, plane, tol, new_tag) {
@@ -1100,36 +1076,54 @@ fn check_small<const N: usize>(faces: &[ConvexPolygon], tol: &Tolerances) -> Res
 /// vertex after the run (see [`ConvexPolyhedron::split_face_along`]).
 fn settle_on_runs(v: &[P3], sides: &mut [Side], chord: &[P3]) {
     let n = v.len();
-    let Some(start) = (0..n).find(|&k| sides[k] != Side::On) else {
-        return;
-    };
     let is_chord = |p: &P3| chord.iter().any(|c| key(c) == key(p));
+    // The runs are bounded by vertices that are not On, which settling leaves as they are,
+    // so finding them all first finds the same runs.
+    for (a, len, before, after) in crossed_on_runs(n, |k| sides[k]) {
+        let hits: Vec<usize> = (0..len).filter(|&r| is_chord(&v[(a + r) % n])).collect();
+        if let [h] = hits[..] {
+            for r in 0..len {
+                sides[(a + r) % n] = settled(r, h, before, after);
+            }
+        }
+    }
+}
+
+/// The maximal runs of two or more On vertices in a cycle of `n` vertices (`side(k)` of
+/// vertex `k`) whose neighbours lie on opposite sides: (first vertex, length, side before,
+/// side after). Empty when every vertex is On.
+fn crossed_on_runs(n: usize, side: impl Fn(usize) -> Side) -> Vec<(usize, usize, Side, Side)> {
+    let mut runs = Vec::new();
+    let Some(start) = (0..n).find(|&k| side(k) != Side::On) else {
+        return runs;
+    };
     let mut k = 0;
     while k < n {
         let a = (start + k) % n;
-        if sides[a] != Side::On {
+        if side(a) != Side::On {
             k += 1;
             continue;
         }
-        // The run a, a+1, .. of On vertices, bounded by `before` and `after`.
         let mut len = 0;
-        while sides[(a + len) % n] == Side::On {
+        while side((a + len) % n) == Side::On {
             len += 1;
         }
-        let (before, after) = (sides[(a + n - 1) % n], sides[(a + len) % n]);
+        let (before, after) = (side((a + n - 1) % n), side((a + len) % n));
         if len >= 2 && before != after {
-            let hits: Vec<usize> = (0..len).filter(|&r| is_chord(&v[(a + r) % n])).collect();
-            if let [h] = hits[..] {
-                for r in 0..len {
-                    if r < h {
-                        sides[(a + r) % n] = before;
-                    } else if r > h {
-                        sides[(a + r) % n] = after;
-                    }
-                }
-            }
+            runs.push((a, len, before, after));
         }
         k += len;
+    }
+    runs
+}
+
+/// The side of the `r`-th vertex of a run whose chord ends at its `h`-th: the side before
+/// the run for those before `h`, after it for those after, On for `h` itself.
+fn settled(r: usize, h: usize, before: Side, after: Side) -> Side {
+    match r.cmp(&h) {
+        std::cmp::Ordering::Less => before,
+        std::cmp::Ordering::Greater => after,
+        std::cmp::Ordering::Equal => Side::On,
     }
 }
 
@@ -1195,58 +1189,31 @@ mod tests {
     /// (one vertex the chord's end, the other on its side) splits it into valid pieces.
     #[test]
     fn a_plane_through_a_tiny_edge_of_a_crossed_face_still_cuts() {
-        let faces: Vec<Vec<P3>> = vec![
-            vec![
-                [-2210.927978515625, 318.7740173339844, 736.4159545898438],
-                [-2205.489494809718, 549.5914646357019, 691.3539805898995],
-                [-2208.708050870531, 538.2518368688224, 695.3546544952268],
-                [-2209.183626035592, 536.453600866162, 695.9679976453749],
-                [-2261.46464169336, 337.8286848073214, 763.5644177550556],
-                [-2261.4645793423415, 337.82866129809355, 763.5643842598814],
-            ],
-            vec![
-                [-2210.927978515625, 318.7740173339844, 736.4159545898438],
-                [-2223.2106015913355, 407.246260821558, 726.8983979464173],
-                [-2205.655908417168, 548.9859271900983, 691.5543190228906],
-                [-2205.489494809718, 549.5914646357019, 691.3539805898995],
-            ],
-            vec![
-                [-2210.927978515625, 318.7740173339844, 736.4159545898438],
-                [-2261.4645793423415, 337.82866129809355, 763.5643842598814],
-                [-2261.4589153912484, 337.822375320201, 763.5500885597766],
-                [-2236.0975836949624, 327.80627519165256, 748.6957760326708],
-            ],
-            vec![
-                [-2210.927978515625, 318.7740173339844, 736.4159545898438],
-                [-2236.0975836949624, 327.80627519165256, 748.6957760326708],
-                [-2233.191521378807, 326.6585668817346, 746.993674645237],
-            ],
-            vec![
-                [-2261.4589153912484, 337.822375320201, 763.5500885597766],
-                [-2261.4645793423415, 337.82866129809355, 763.5643842598814],
-                [-2261.46464169336, 337.8286848073214, 763.5644177550556],
-                [-2209.183626035592, 536.453600866162, 695.9679976453749],
-            ],
-            vec![
-                [-2208.708050870531, 538.2518368688224, 695.3546544952268],
-                [-2205.489494809718, 549.5914646357019, 691.3539805898995],
-                [-2205.655908417168, 548.9859271900983, 691.5543190228906],
-            ],
-            vec![
-                [-2210.927978515625, 318.7740173339844, 736.4159545898438],
-                [-2233.191521378807, 326.6585668817346, 746.993674645237],
-                [-2223.2106015913355, 407.246260821558, 726.8983979464173],
-            ],
-            vec![
-                [-2209.183626035592, 536.453600866162, 695.9679976453749],
-                [-2208.708050870531, 538.2518368688224, 695.3546544952268],
-                [-2205.655908417168, 548.9859271900983, 691.5543190228906],
-                [-2223.2106015913355, 407.246260821558, 726.8983979464173],
-                [-2233.191521378807, 326.6585668817346, 746.993674645237],
-                [-2236.0975836949624, 327.80627519165256, 748.6957760326708],
-                [-2261.4589153912484, 337.822375320201, 763.5500885597766],
-            ],
+        // The cell's 11 vertices (exact bits) and its faces as index cycles.
+        let v: [P3; 11] = [
+            [-2210.927978515625, 318.7740173339844, 736.4159545898438],
+            [-2205.489494809718, 549.5914646357019, 691.3539805898995],
+            [-2208.708050870531, 538.2518368688224, 695.3546544952268],
+            [-2209.183626035592, 536.453600866162, 695.9679976453749],
+            [-2261.46464169336, 337.8286848073214, 763.5644177550556],
+            [-2261.4645793423415, 337.82866129809355, 763.5643842598814],
+            [-2223.2106015913355, 407.246260821558, 726.8983979464173],
+            [-2205.655908417168, 548.9859271900983, 691.5543190228906],
+            [-2261.4589153912484, 337.822375320201, 763.5500885597766],
+            [-2236.0975836949624, 327.80627519165256, 748.6957760326708],
+            [-2233.191521378807, 326.6585668817346, 746.993674645237],
         ];
+        let faces: [&[usize]; 8] = [
+            &[0, 1, 2, 3, 4, 5],
+            &[0, 6, 7, 1],
+            &[0, 5, 8, 9],
+            &[0, 9, 10],
+            &[8, 5, 4, 3],
+            &[2, 1, 7],
+            &[0, 10, 6],
+            &[3, 2, 7, 6, 10, 9, 8],
+        ];
+        let faces: Vec<Vec<P3>> = faces.iter().map(|f| f.iter().map(|&i| v[i]).collect()).collect();
         let n = faces.len() as u32;
         let cell = ConvexPolyhedron {
             faces: faces.into_iter().map(ConvexPolygon::new).collect(),
