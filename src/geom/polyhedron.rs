@@ -408,11 +408,13 @@ impl ConvexPolyhedron {
     /// section, split their faces the same way. Each choice of chord end (up to
     /// [`SETTLE_CHOICES`] combinations over the runs found) is tried in order, with each
     /// band; the first whose pieces are valid wins. Only reached where every other
-    /// attempt left the cell unsplit, and only for a cell reaching deeper than the sliver
-    /// width on both sides of the plane: a shallower one left unsplit crosses the plane by
-    /// a sliver, which the portal graph drops as a crack and the validation does not count
-    /// (settling such a cut made a 3e-12 sliver piece whose section the validation did
-    /// count: greedy-4 under noise 1e-5).
+    /// attempt left the cell unsplit, and only for a cell reaching deeper than the
+    /// validation's crossing thickness (`max(coplanar, weld)`, the depth below which
+    /// [`crate::complex::CellComplex::validate`] does not count a polygon across a cell)
+    /// on both sides of the plane: a cell left across the plane by more than that is an
+    /// invalid complex (Nexuiz `stormkeep`: a wedge 2.4e-2 behind a wall, below the sliver
+    /// width 4.5e-2 the rule once used), while settling a shallower one only makes
+    /// slivers. Crack sealing never settles ([`cut_sealing`](Self::cut_sealing)).
     fn cut_settling_runs(&self, plane: &Plane, tol: &Tolerances, new_tag: u32) -> Option<Cut> {
         // The distances do not depend on the band: one vertex table for every band.
         let (faces, pos, dist) = self.vertex_table(&Classifier::new(plane, tol));
@@ -421,7 +423,7 @@ impl ConvexPolyhedron {
             maxf = maxf.max(d);
             maxb = maxb.max(-d);
         }
-        if maxf.min(maxb) < tol.sliver_width() {
+        if maxf.min(maxb) <= tol.coplanar_abs().max(tol.weld_abs()) {
             return None;
         }
         for eps in [tol.plane_abs(), tol.snap_abs(), 0.0] {
@@ -1239,6 +1241,65 @@ mod tests {
         let (vf, vb, v) = (s.front.volume(), s.back.volume(), cell.volume());
         // The pieces tile the cell up to the settled vertices' offsets from the plane
         // (within the weld distance of it) over the section.
+        let slack = tol.weld_abs() * s.section.area();
+        assert!(
+            vf > 1.0 && vb > 1.0 && ((vf + vb) - v).abs() <= slack,
+            "{vf} + {vb} vs {v}"
+        );
+    }
+
+    /// Nexuiz `stormkeep` (level 0, before the depth rule moved to the validation's
+    /// thickness): a flat wedge cell 0.08 units thick whose vertices lie -2.4e-2 to 5.9e-2
+    /// from a wall's plane, less than the sliver width (4.5e-2) behind it but more than the
+    /// crossing thickness the validation counts (max(coplanar, weld) = 4.5e-3). Every band
+    /// fails on its own; the settling fallback must split it, or the wall crosses the cell.
+    #[test]
+    fn a_thin_wedge_deeper_than_the_crossing_thickness_is_settled() {
+        let v: [P3; 10] = [
+            [-631.5, 477.0, 909.125],
+            [-533.25, 394.75, 768.0],
+            [-534.5547477187365, 395.76600473245986, 769.6691506318983],
+            [-589.8473586646887, 442.08389063463653, 849.1704662011698],
+            [-521.75, 385.0, 981.875],
+            [-521.7503219691458, 385.000272973841, 981.8690120738213],
+            [-521.7570577966994, 385.0059837841583, 981.743740324426],
+            [-521.7579568300862, 385.00668996158646, 981.7431359505464],
+            [-521.7583357213086, 385.0069875750377, 981.7428812414762],
+            [-535.0950199113042, 396.1867137297493, 770.3603154131596],
+        ];
+        let faces: [&[usize]; 7] = [
+            &[0, 1, 2, 3],
+            &[4, 5, 6, 1, 0],
+            &[2, 1, 6, 7],
+            &[8, 7, 6, 5],
+            &[0, 3, 9, 8, 5, 4],
+            &[2, 9, 3],
+            &[9, 2, 7, 8],
+        ];
+        let faces: Vec<Vec<P3>> = faces.iter().map(|f| f.iter().map(|&i| v[i]).collect()).collect();
+        let n = faces.len() as u32;
+        let cell = ConvexPolyhedron {
+            faces: faces.into_iter().map(ConvexPolygon::new).collect(),
+            tags: (0..n).collect(),
+        };
+        let tol = Tolerances::for_scale(4452.170706520585);
+        cell.check(&tol).expect("the cell is valid");
+        let plane = Plane {
+            n: [0.6422630946713799, 0.7664842463270561, 0.00013174060505069405],
+            d: -39.874982002291716,
+        };
+        for eps in [tol.plane_abs(), tol.snap_abs(), 0.0] {
+            assert!(cell.cut_within(&Classifier::with_eps(&plane, eps), &plane, &tol, n).1);
+        }
+        // Shallower than the sliver width on the back, deeper than the crossing thickness.
+        let back = v.iter().map(|x| -plane.eval(x)).fold(0.0f64, f64::max);
+        assert!(back < tol.sliver_width() && back > tol.coplanar_abs().max(tol.weld_abs()));
+        let Cut::Split(s) = cell.cut(&plane, &tol, n) else {
+            panic!("not split")
+        };
+        s.front.check(&tol).expect("front piece");
+        s.back.check(&tol).expect("back piece");
+        let (vf, vb, v) = (s.front.volume(), s.back.volume(), cell.volume());
         let slack = tol.weld_abs() * s.section.area();
         assert!(
             vf > 1.0 && vb > 1.0 && ((vf + vb) - v).abs() <= slack,
