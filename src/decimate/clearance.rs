@@ -1268,16 +1268,14 @@ pub fn tunnel_labels(cx: &CellComplex, field: &CellField, part: &super::Partitio
             return None;
         }
         let m = 2 + cells.len();
-        // Directed edges in insertion order (edge `e ^ 1` is `e` reversed), then each
-        // node's edges as a compressed row in that order (`adj[start[u]..start[u + 1]]`),
-        // the order a list per node would hold them in.
-        let (mut from, mut to, mut cap): (Vec<u32>, Vec<u32>, Vec<f64>) = (Vec::new(), Vec::new(), Vec::new());
+        // Each portal between two flow nodes, once (from its lower cell), both ends in the
+        // pair; its area is the capacity.
+        let mut edges: Vec<(u32, u32, f64)> = Vec::new();
         for &g in &[i, j] {
             for &c in &members[g as usize] {
                 for &k in cell_portals.of(c as usize) {
                     let (a, b, area) = ends[k as usize];
                     let o = if a == c { b } else { a };
-                    // Each portal once (from its lower cell), both ends in the pair.
                     if label[o as usize] != i && label[o as usize] != j {
                         continue;
                     }
@@ -1288,83 +1286,13 @@ pub fn tunnel_labels(cx: &CellComplex, field: &CellField, part: &super::Partitio
                     if c > o || x == y {
                         continue;
                     }
-                    for (u, v) in [(x, y), (y, x)] {
-                        from.push(u);
-                        to.push(v);
-                        cap.push(area);
-                    }
+                    edges.push((x, y, area));
                 }
             }
         }
-        let mut start = vec![0u32; m + 1];
-        for &u in &from {
-            start[u as usize + 1] += 1;
-        }
-        for u in 0..m {
-            start[u + 1] += start[u];
-        }
-        let mut fill = start.clone();
-        let mut adj = vec![0u32; from.len()];
-        for (e, &u) in from.iter().enumerate() {
-            adj[fill[u as usize] as usize] = e as u32;
-            fill[u as usize] += 1;
-        }
-        drop((from, fill));
-        let head = |u: u32| &adj[start[u as usize] as usize..start[u as usize + 1] as usize];
-        // Edmonds–Karp: shortest augmenting paths, in the edges' order (deterministic).
-        let mut prev = vec![u32::MAX; m];
-        let mut queue = std::collections::VecDeque::new();
-        let reach = loop {
-            prev.iter_mut().for_each(|p| *p = u32::MAX);
-            let mut seen = vec![false; m];
-            seen[0] = true;
-            queue.clear();
-            queue.push_back(0u32);
-            while let Some(u) = queue.pop_front() {
-                if u == 1 {
-                    break;
-                }
-                for &e in head(u) {
-                    let v = to[e as usize];
-                    if !seen[v as usize] && cap[e as usize] > 0.0 {
-                        seen[v as usize] = true;
-                        prev[v as usize] = e;
-                        queue.push_back(v);
-                    }
-                }
-            }
-            if !seen[1] {
-                break seen;
-            }
-            let mut bottleneck = f64::INFINITY;
-            let mut v = 1u32;
-            while v != 0 {
-                let e = prev[v as usize] as usize;
-                bottleneck = bottleneck.min(cap[e]);
-                v = to[e ^ 1];
-            }
-            let mut v = 1u32;
-            while v != 0 {
-                let e = prev[v as usize] as usize;
-                cap[e] -= bottleneck;
-                cap[e ^ 1] += bottleneck;
-                v = to[e ^ 1];
-            }
-        };
-        // The cells that reach the sink in the residual graph.
-        let mut to_sink = vec![false; m];
-        to_sink[1] = true;
-        let mut stack = vec![1u32];
-        while let Some(v) = stack.pop() {
-            for &e in head(v) {
-                // Edge e: v -> u; its reverse u -> v has residual capacity cap[e ^ 1].
-                let u = to[e as usize];
-                if !to_sink[u as usize] && cap[e as usize ^ 1] > 0.0 {
-                    to_sink[u as usize] = true;
-                    stack.push(u);
-                }
-            }
-        }
+        // The cells the source's cores reach in the residual graph, and those that reach
+        // the sink's (the same sets for every maximum flow).
+        let (reach, to_sink) = super::flow::FlowNet::new(m, edges).min_cut(0, 1);
         // Cells between the least and the largest minimum cut (a tie: a tunnel of uniform
         // section) join the group of the higher peak (then the larger volume, then the
         // lower id): not the group they came from, which the collapse order chose.

@@ -105,6 +105,7 @@
 
 pub mod clearance;
 pub mod estimator;
+mod flow;
 mod heap4;
 pub mod heuristic;
 mod hull3;
