@@ -90,9 +90,7 @@ impl FlowNet {
             }
             // A blocking flow: depth first along edges one level down the path, each node's
             // current edge advancing past edges that are saturated or lead to dead ends.
-            for u in 0..n {
-                next[u] = self.start[u];
-            }
+            next.copy_from_slice(&self.start[..n]);
             path.clear();
             let mut u = source;
             loop {
@@ -223,7 +221,10 @@ mod tests {
     struct Lcg(u64);
     impl Lcg {
         fn next(&mut self) -> u64 {
-            self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            self.0 = self
+                .0
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             self.0 >> 33
         }
     }
