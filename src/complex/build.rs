@@ -759,10 +759,21 @@ impl CellComplex {
             return false;
         }
         let faces = cell.faces();
-        let vs = crate::geom::vertices_of(&faces);
         let un = plane.normalized();
-        let ds: Vec<f64> = vs.iter().map(|v| un.eval(v)).collect();
-        if ds.iter().all(|&d| d > slack) || ds.iter().all(|&d| d < -slack) {
+        // Every vertex beyond `slack` on one side: read from the faces as they are (a vertex
+        // of several faces gives the same answer each time), stopping once both fail.
+        let (mut above, mut below) = (true, true);
+        for f in faces.iter() {
+            for v in &f.verts {
+                let d = un.eval(v);
+                above &= d > slack;
+                below &= d < -slack;
+            }
+            if !(above || below) {
+                break;
+            }
+        }
+        if above || below {
             return false;
         }
         // Separated by a face plane of the cell?
