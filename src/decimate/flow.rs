@@ -137,9 +137,13 @@ impl FlowNet {
             }
         }
         let reach: Vec<bool> = level.iter().map(|&l| l != u32::MAX).collect();
-        // The nodes that reach the sink: edge `e: v -> u` read backwards, its reverse
-        // `u -> v` has residual capacity `cap[e ^ 1]`.
-        let mut to_sink = vec![false; n];
+        (reach, self.sink_side(sink))
+    }
+
+    /// The nodes from which `sink` is reachable in the residual graph: edge `e: v -> u`
+    /// read backwards, its reverse `u -> v` has residual capacity `cap[e ^ 1]`.
+    fn sink_side(&self, sink: u32) -> Vec<bool> {
+        let mut to_sink = vec![false; self.nodes()];
         to_sink[sink as usize] = true;
         let mut stack = vec![sink];
         while let Some(v) = stack.pop() {
@@ -151,7 +155,7 @@ impl FlowNet {
                 }
             }
         }
-        (reach, to_sink)
+        to_sink
     }
 
     /// Edmonds–Karp (one breadth-first search per augmenting path): the reference
@@ -198,19 +202,7 @@ impl FlowNet {
                 v = self.to[e ^ 1];
             }
         };
-        let mut to_sink = vec![false; n];
-        to_sink[sink as usize] = true;
-        let mut stack = vec![sink];
-        while let Some(v) = stack.pop() {
-            for &e in self.row(v) {
-                let u = self.to[e as usize];
-                if !to_sink[u as usize] && self.cap[e as usize ^ 1] > 0.0 {
-                    to_sink[u as usize] = true;
-                    stack.push(u);
-                }
-            }
-        }
-        (reach, to_sink)
+        (reach, self.sink_side(sink))
     }
 }
 
