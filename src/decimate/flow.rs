@@ -71,12 +71,17 @@ impl FlowNet {
         let mut queue = std::collections::VecDeque::new();
         let mut path: Vec<u32> = Vec::new();
         loop {
-            // Level the residual graph (every node the source reaches).
+            // Level the residual graph from the source, up to the sink's level: a node at
+            // or beyond it lies on no shortest path (the last search, which does not reach
+            // the sink, levels every node the source reaches).
             level.iter_mut().for_each(|l| *l = u32::MAX);
             level[source as usize] = 0;
             queue.clear();
             queue.push_back(source);
             while let Some(u) = queue.pop_front() {
+                if level[u as usize] >= level[sink as usize] {
+                    break;
+                }
                 for &e in self.row(u) {
                     let v = self.to[e as usize];
                     if level[v as usize] == u32::MAX && self.cap[e as usize] > 0.0 {
