@@ -3,8 +3,8 @@
 //! builds the network from the cells of two groups and their portals' areas).
 //!
 //! The flow is Dinic's (1970): per phase, a breadth-first search levels the residual graph
-//! from the source, then a depth-first search with a current-edge pointer per node saturates
-//! every shortest augmenting path (a blocking flow). It replaces Edmonds–Karp, which ran one
+//! from the source up to the sink's level, then a depth-first search with a current-edge
+//! pointer per node saturates every shortest augmenting path (a blocking flow). It replaces Edmonds–Karp, which ran one
 //! breadth-first search of the whole network per augmenting path: on a 500k-cell outdoor
 //! level (Nexuiz `cyberparcour01`) the boundary moves took over a minute.
 //!
