@@ -214,33 +214,23 @@ impl FlowNet {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    struct Lcg(u64);
-    impl Lcg {
-        fn next(&mut self) -> u64 {
-            self.0 = self
-                .0
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            self.0 >> 33
-        }
-    }
+    use crate::base::rng::SplitMix64;
 
     /// On random networks (sparse and dense, with ties: capacities are small integers,
     /// whose sums are exact in f64, so the residual graphs are exact), Dinic's cut sides
     /// equal Edmonds–Karp's.
     #[test]
     fn dinic_cuts_equal_edmonds_karp_cuts() {
-        let mut rng = Lcg(7);
+        let mut rng = SplitMix64(7);
         let mut nontrivial = 0;
         for round in 0..400 {
-            let n = 2 + (rng.next() % 40) as usize;
-            let m = (rng.next() % (4 * n as u64 + 1)) as usize;
+            let n = 2 + rng.below(40);
+            let m = rng.below(4 * n + 1);
             let edges: Vec<(u32, u32, f64)> = (0..m)
                 .map(|_| {
-                    let u = (rng.next() % n as u64) as u32;
-                    let v = (rng.next() % n as u64) as u32;
-                    (u, v, (1 + rng.next() % 5) as f64)
+                    let u = rng.below(n) as u32;
+                    let v = rng.below(n) as u32;
+                    (u, v, (1 + rng.below(5)) as f64)
                 })
                 .filter(|&(u, v, _)| u != v)
                 .collect();

@@ -1183,6 +1183,42 @@ mod tests {
     use super::super::vec::norm;
     use super::*;
 
+    /// A cell from its vertices (exact bits) and its faces as index cycles, each face
+    /// tagged with its index; checked valid at `tol`.
+    fn cell_of_table(v: &[P3], faces: &[&[usize]], tol: &Tolerances) -> ConvexPolyhedron {
+        let cell = ConvexPolyhedron {
+            faces: faces
+                .iter()
+                .map(|f| ConvexPolygon::new(f.iter().map(|&i| v[i]).collect()))
+                .collect(),
+            tags: (0..faces.len() as u32).collect(),
+        };
+        cell.check(tol).expect("the cell is valid");
+        cell
+    }
+
+    /// Every On band alone fails to cut `cell` by `plane`, and `cut` (its settling
+    /// fallback) splits it into valid pieces of more than one unit each that tile the cell
+    /// up to the settled vertices' offsets from the plane (within the weld distance of it)
+    /// over the section.
+    fn assert_only_settling_cuts(cell: &ConvexPolyhedron, plane: &Plane, tol: &Tolerances) {
+        let n = cell.faces.len() as u32;
+        for eps in [tol.plane_abs(), tol.snap_abs(), 0.0] {
+            assert!(cell.cut_within(&Classifier::with_eps(plane, eps), plane, tol, n).1);
+        }
+        let Cut::Split(s) = cell.cut(plane, tol, n) else {
+            panic!("not split")
+        };
+        s.front.check(tol).expect("front piece");
+        s.back.check(tol).expect("back piece");
+        let (vf, vb, v) = (s.front.volume(), s.back.volume(), cell.volume());
+        let slack = tol.weld_abs() * s.section.area();
+        assert!(
+            vf > 1.0 && vb > 1.0 && ((vf + vb) - v).abs() <= slack,
+            "{vf} + {vb} vs {v}"
+        );
+    }
+
     /// A cell of Nexuiz's `racetrack` (issue 16, session 33) that no On band could cut: the
     /// plane of a terrain triangle passes through a 7e-5 edge (far below the weld distance
     /// 1.8e-3) of a face it crosses, so that face has a run of two On vertices between a
@@ -1215,37 +1251,18 @@ mod tests {
             &[0, 10, 6],
             &[3, 2, 7, 6, 10, 9, 8],
         ];
-        let faces: Vec<Vec<P3>> = faces.iter().map(|f| f.iter().map(|&i| v[i]).collect()).collect();
-        let n = faces.len() as u32;
-        let cell = ConvexPolyhedron {
-            faces: faces.into_iter().map(ConvexPolygon::new).collect(),
-            tags: (0..n).collect(),
-        };
         let tol = Tolerances::for_scale(18441.636292985288);
-        cell.check(&tol).expect("the cell is valid");
+        let cell = cell_of_table(&v, &faces, &tol);
         let plane = Plane {
             n: [0.513686916246755, 0.16195445561825592, 0.8425535629159095],
             d: -463.6280165569997,
         };
-        // Every band fails on its own (the run of On vertices), as before the fallback.
-        for eps in [tol.plane_abs(), tol.snap_abs(), 0.0] {
-            assert!(cell.cut_within(&Classifier::with_eps(&plane, eps), &plane, &tol, n).1);
-        }
         // A crack's cut does not settle (`cut_sealing`): the cell stays whole there.
-        assert!(!matches!(cell.cut_sealing(&plane, &tol, n), Cut::Split(_)));
-        let Cut::Split(s) = cell.cut(&plane, &tol, n) else {
-            panic!("not split")
-        };
-        s.front.check(&tol).expect("front piece");
-        s.back.check(&tol).expect("back piece");
-        let (vf, vb, v) = (s.front.volume(), s.back.volume(), cell.volume());
-        // The pieces tile the cell up to the settled vertices' offsets from the plane
-        // (within the weld distance of it) over the section.
-        let slack = tol.weld_abs() * s.section.area();
-        assert!(
-            vf > 1.0 && vb > 1.0 && ((vf + vb) - v).abs() <= slack,
-            "{vf} + {vb} vs {v}"
-        );
+        assert!(!matches!(
+            cell.cut_sealing(&plane, &tol, faces.len() as u32),
+            Cut::Split(_)
+        ));
+        assert_only_settling_cuts(&cell, &plane, &tol);
     }
 
     /// Nexuiz `stormkeep` (level 0, before the depth rule moved to the validation's
@@ -1276,35 +1293,16 @@ mod tests {
             &[2, 9, 3],
             &[9, 2, 7, 8],
         ];
-        let faces: Vec<Vec<P3>> = faces.iter().map(|f| f.iter().map(|&i| v[i]).collect()).collect();
-        let n = faces.len() as u32;
-        let cell = ConvexPolyhedron {
-            faces: faces.into_iter().map(ConvexPolygon::new).collect(),
-            tags: (0..n).collect(),
-        };
         let tol = Tolerances::for_scale(4452.170706520585);
-        cell.check(&tol).expect("the cell is valid");
+        let cell = cell_of_table(&v, &faces, &tol);
         let plane = Plane {
             n: [0.6422630946713799, 0.7664842463270561, 0.00013174060505069405],
             d: -39.874982002291716,
         };
-        for eps in [tol.plane_abs(), tol.snap_abs(), 0.0] {
-            assert!(cell.cut_within(&Classifier::with_eps(&plane, eps), &plane, &tol, n).1);
-        }
         // Shallower than the sliver width on the back, deeper than the crossing thickness.
         let back = v.iter().map(|x| -plane.eval(x)).fold(0.0f64, f64::max);
         assert!(back < tol.sliver_width() && back > tol.coplanar_abs().max(tol.weld_abs()));
-        let Cut::Split(s) = cell.cut(&plane, &tol, n) else {
-            panic!("not split")
-        };
-        s.front.check(&tol).expect("front piece");
-        s.back.check(&tol).expect("back piece");
-        let (vf, vb, v) = (s.front.volume(), s.back.volume(), cell.volume());
-        let slack = tol.weld_abs() * s.section.area();
-        assert!(
-            vf > 1.0 && vb > 1.0 && ((vf + vb) - v).abs() <= slack,
-            "{vf} + {vb} vs {v}"
-        );
+        assert_only_settling_cuts(&cell, &plane, &tol);
     }
 
     /// The apex has the same bits for every listing of a face, where the plain sum of its
