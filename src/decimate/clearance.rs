@@ -1418,22 +1418,22 @@ struct LazyHull {
 /// Valid for the first `ranges.len()` members as listed at the judgement; members are only
 /// ever appended after them ([`Comp::absorb_members`] moves the memo of the list that stays
 /// first and drops the other), so later judgements extend it with the new members only.
-/// Every value is the one the plain computation gives: the component's extent is an exact
-/// min/max, a cut's sum continues in the members' order from where it stopped (the same
-/// additions), and the per-member ranges only decide which members are skipped, so they
-/// are kept in `f32` rounded outwards (a member visited needlessly adds exactly 0).
+/// Every value is the one the plain computation gives: a cut's sum continues in the
+/// members' order from where it stopped (the same additions), and the per-member ranges
+/// only decide which members are skipped, so they are kept in `f32` rounded outwards (a
+/// member visited needlessly adds exactly 0). A judgement that only needs to know whether
+/// a cut reaches a given area may stop summing early: then `ranges` and `summed` cover a
+/// prefix of the members, and the next judgement continues from it.
 #[derive(Clone, Debug, Default)]
 struct SliceMemo {
     /// The frame's normal, axes and origin, as bits.
     frame: [u64; 12],
-    /// Each member's (lowest, highest) vertex height, rounded outwards; (-inf, inf) when a
-    /// height is NaN (never skipped).
+    /// The first members' (lowest, highest) vertex height, rounded outwards;
+    /// (-inf, inf) when a height is NaN (never skipped).
     ranges: Vec<(f32, f32)>,
-    /// The exact extent of those members along the normal.
-    lo: f64,
-    hi: f64,
-    /// The cuts' partial sums over the first `summed` members, at the heights given by
-    /// `cut_at` (the extent and the number of cuts they were taken for).
+    /// The cuts' partial sums over the first `summed` members (`summed <= ranges.len()`),
+    /// at the heights given by `cut_at` (the extent and the number of cuts they were taken
+    /// for).
     sums: Vec<f64>,
     summed: usize,
     cut_at: (u64, u64, usize),
@@ -1491,8 +1491,9 @@ impl Comp {
     }
 }
 
-/// The projected area of a component on `frame` (2D convex hull of its 3D hull).
-fn section(cx: &CellComplex, c: &mut Comp, frame: &Frame) -> f64 {
+/// The component's 3D hull, built or brought up to date with the members absorbed since
+/// ([`LazyHull`]).
+fn flushed_hull<'a>(cx: &CellComplex, c: &'a mut Comp) -> &'a Hull3 {
     let vertices = |ms: &[u32]| -> Vec<[f64; 3]> { ms.iter().flat_map(|&m| cx.cells[m as usize].vertices()).collect() };
     let lazy = c.hull.get_or_insert_with(|| {
         Box::new(LazyHull {
@@ -1505,28 +1506,57 @@ fn section(cx: &CellComplex, c: &mut Comp, frame: &Frame) -> f64 {
         let pending = std::mem::take(&mut lazy.pending);
         lazy.hull.insert_points(&vertices(&pending));
     }
-    let hull = &lazy.hull;
+    &lazy.hull
+}
+
+/// The projected area of a component on `frame` (2D convex hull of its 3D hull).
+fn section(cx: &CellComplex, c: &mut Comp, frame: &Frame) -> f64 {
+    let hull = flushed_hull(cx, c);
     let a = polygon_area(&hull2(hull.pts.iter().map(|p| frame.project(p)).collect::<Vec<P2>>()));
     if a.is_finite() { a.max(0.0) } else { 0.0 }
 }
 
+/// The component's extent along `frame`'s normal: the lowest and highest height of its
+/// hull's points. The hull ([`Hull3`], exact orientation tests) holds every extreme point
+/// of the members' vertices, so this is their extent without visiting every member (a
+/// member vertex inside the hull could only exceed it by the heights' rounding, at a tie).
+fn extent(hull: &Hull3, frame: &Frame) -> (f64, f64) {
+    hull.pts.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+        let h = height(frame, p);
+        (lo.min(h), hi.max(h))
+    })
+}
+
 /// The largest of `k` cuts of a component by planes parallel to `frame`'s, at heights
-/// `(i + 1/2) / k` of its extent along the normal (`i = 0..k`): the summed areas of the
-/// members' convex cuts (the members are disjoint, so the sum is the cut's area).
+/// `(i + 1/2) / k` of its extent along the normal ([`extent`], `i = 0..k`): the summed
+/// areas of the members' convex cuts (the members are disjoint, so the sum is the cut's
+/// area).
 ///
 /// A member whose vertices all lie on one side of a cut's plane (by the test
 /// [`cut_area`] makes for each edge, `height - t < 0`, which is monotone in the height)
 /// has no crossing edge and adds exactly 0 there, so it is skipped: each member's height
 /// range is taken once, and a cut visits only the members it crosses
 /// (`sliced_section_skips_only_members_that_add_nothing` compares with the plain sum).
+#[cfg(test)]
 fn sliced_section(cx: &CellComplex, c: &mut Comp, frame: &Frame, k: usize) -> f64 {
-    sliced_section_memo_from(cx, c, frame, k, SLICE_MEMO_MEMBERS)
+    sliced_section_reaching(cx, c, frame, k, f64::INFINITY, SLICE_MEMO_MEMBERS)
 }
 
-/// [`sliced_section`], memoized ([`SliceMemo`]) for a component of `memo_from` or more
-/// members that has a hull; a smaller one is cut with a fresh memo that is not kept (the
-/// same value either way).
-fn sliced_section_memo_from(cx: &CellComplex, c: &mut Comp, frame: &Frame, k: usize, memo_from: usize) -> f64 {
+/// [`sliced_section`] for a decision against `target`: the largest cut when it is below
+/// `target`, else a value at or above `target` (a cut's sum in the members' order, stopped
+/// once it reaches `target`: its terms are areas, never negative, so the full sum is at
+/// least as large). `f64::INFINITY` gives the largest cut. Memoized ([`SliceMemo`]) for a
+/// component of `memo_from` or more members; a smaller one is cut with a fresh memo that
+/// is not kept (the same value either way).
+fn sliced_section_reaching(
+    cx: &CellComplex,
+    c: &mut Comp,
+    frame: &Frame,
+    k: usize,
+    target: f64,
+    memo_from: usize,
+) -> f64 {
+    let (lo, hi) = extent(flushed_hull(cx, c), frame);
     let Comp { members, hull, .. } = c;
     let key = [frame.n, frame.u, frame.v, frame.o].concat();
     let key: [u64; 12] = std::array::from_fn(|i| key[i].to_bits());
@@ -1539,11 +1569,9 @@ fn sliced_section_memo_from(cx: &CellComplex, c: &mut Comp, frame: &Frame, k: us
         .and_then(|s| s.iter().position(|m| m.frame == key).map(|i| s.remove(i)));
     let mut memo = found.unwrap_or_else(|| SliceMemo {
         frame: key,
-        lo: f64::INFINITY,
-        hi: f64::NEG_INFINITY,
         ..SliceMemo::default()
     });
-    let value = memo.extend(cx, members, frame, k);
+    let value = memo.extend(cx, members, frame, (lo, hi), k, target);
     if let Some(s) = store {
         s.insert(0, memo);
         s.truncate(SLICE_MEMO_FRAMES);
@@ -1551,19 +1579,26 @@ fn sliced_section_memo_from(cx: &CellComplex, c: &mut Comp, frame: &Frame, k: us
     value
 }
 
+/// Members summed at least per step of [`SliceMemo::extend`] between looks at the target
+/// (the step grows with what was summed; the sums do not depend on it).
+const SLICE_STEP: usize = 256;
+
 impl SliceMemo {
-    /// Brings the memo up to `members` (its ranges and extent, and its cuts' sums, redone
-    /// from the ranges when the extent or the number of cuts changed) and returns the
-    /// largest cut. Each cut's area is summed by one task in the members' order, so the
-    /// value does not depend on the thread count; many members' cuts run in parallel.
-    fn extend(&mut self, cx: &CellComplex, members: &[u32], frame: &Frame, k: usize) -> f64 {
-        // The new members' ranges; the extent as the plain fold over all members gives it.
-        for r in member_ranges(cx, &members[self.ranges.len()..], frame) {
-            self.lo = self.lo.min(r.0);
-            self.hi = self.hi.max(r.1);
-            self.ranges.push(outward(r));
-        }
-        let (lo, hi) = (self.lo, self.hi);
+    /// Brings the cuts' sums at `extent` forward through `members` (taking the members'
+    /// ranges as it goes; the sums redone from the first member when the extent or the
+    /// number of cuts changed) until one reaches `target` or every member is summed, and
+    /// returns the largest. Each cut's area is summed by one task in the members' order,
+    /// so the value depends neither on the thread count nor on where a step ends; many
+    /// members' cuts run in parallel.
+    fn extend(
+        &mut self,
+        cx: &CellComplex,
+        members: &[u32],
+        frame: &Frame,
+        (lo, hi): (f64, f64),
+        k: usize,
+        target: f64,
+    ) -> f64 {
         if hi.partial_cmp(&lo) != Some(Ordering::Greater) || k == 0 {
             return 0.0;
         }
@@ -1573,27 +1608,41 @@ impl SliceMemo {
             self.sums = vec![0.0; k];
             self.summed = 0;
         }
-        let from = self.summed;
-        let (todo, ranges) = (&members[from..], &self.ranges[from..]);
-        let slice = |(i, &start): (usize, &f64)| {
-            let t = lo + (hi - lo) * (i as f64 + 0.5) / k as f64;
-            let (mut pts, mut hull) = (Vec::new(), Vec::new());
-            let mut sum = start;
-            for (&m, &(a, b)) in todo.iter().zip(ranges) {
-                if f64::from(b) < t || f64::from(a) >= t {
-                    continue;
-                }
-                sum += cut_area_with(&cx.cells[m as usize], frame, t, &mut pts, &mut hull);
+        loop {
+            let best = self.sums.iter().copied().fold(0.0, f64::max);
+            if best >= target || self.summed >= members.len() {
+                return best;
             }
-            sum
-        };
-        self.sums = if todo.len() >= PARALLEL_MEMBERS {
-            self.sums.par_iter().enumerate().with_max_len(1).map(slice).collect()
-        } else {
-            self.sums.iter().enumerate().map(slice).collect()
-        };
-        self.summed = members.len();
-        self.sums.iter().copied().fold(0.0, f64::max)
+            let from = self.summed;
+            let end = if target == f64::INFINITY {
+                members.len()
+            } else {
+                (from + SLICE_STEP.max(from / 2)).min(members.len())
+            };
+            if self.ranges.len() < end {
+                let fresh = member_ranges(cx, &members[self.ranges.len()..end], frame);
+                self.ranges.extend(fresh.into_iter().map(outward));
+            }
+            let (todo, ranges) = (&members[from..end], &self.ranges[from..end]);
+            let slice = |(i, &start): (usize, &f64)| {
+                let t = lo + (hi - lo) * (i as f64 + 0.5) / k as f64;
+                let (mut pts, mut hull) = (Vec::new(), Vec::new());
+                let mut sum = start;
+                for (&m, &(a, b)) in todo.iter().zip(ranges) {
+                    if f64::from(b) < t || f64::from(a) >= t {
+                        continue;
+                    }
+                    sum += cut_area_with(&cx.cells[m as usize], frame, t, &mut pts, &mut hull);
+                }
+                sum
+            };
+            self.sums = if todo.len() >= PARALLEL_MEMBERS {
+                self.sums.par_iter().enumerate().with_max_len(1).map(slice).collect()
+            } else {
+                self.sums.iter().enumerate().map(slice).collect()
+            };
+            self.summed = end;
+        }
     }
 }
 
@@ -2277,16 +2326,22 @@ fn merge<I: Ids>(
             // The opening the sections are compared with.
             let opening = |g: &ApertureGate| if g.vector_opening { l.opening() } else { l.area };
             let mut kept = gated.is_some_and(|g| pa.min(pb) >= g.ratio * opening(&g));
-            if let Some(g) = gated.filter(|g| kept && g.slices > 0) {
-                // Cuts parallel to the portal, the smaller projection first.
-                let (first, second) = if pa <= pb { (a, b) } else { (b, a) };
-                let s1 = sliced_section(cx, &mut comps[first], &frame, g.slices);
-                let s2 = if s1 >= g.ratio * opening(&g) {
-                    sliced_section(cx, &mut comps[second], &frame, g.slices)
+            // Cuts parallel to the portal, the smaller projection first; summed only until
+            // they decide, unless the trace records their values.
+            let (first, second) = if pa <= pb { (a, b) } else { (b, a) };
+            let traced = trace.is_some();
+            let cut = |comps: &mut [Comp], decide: f64, g: &ApertureGate| {
+                let target = if traced { f64::INFINITY } else { decide };
+                let s1 = sliced_section_reaching(cx, &mut comps[first], &frame, g.slices, target, SLICE_MEMO_MEMBERS);
+                let s2 = if s1 >= decide {
+                    sliced_section_reaching(cx, &mut comps[second], &frame, g.slices, target, SLICE_MEMO_MEMBERS)
                 } else {
                     f64::INFINITY
                 };
-                (pa, pb) = if first == a { (s1, s2) } else { (s2, s1) };
+                if first == a { (s1, s2) } else { (s2, s1) }
+            };
+            if let Some(g) = gated.filter(|g| kept && g.slices > 0) {
+                (pa, pb) = cut(&mut comps, g.ratio * opening(&g), &g);
                 kept = pa.min(pb) >= g.ratio * opening(&g);
             }
             if let Some(g) = gated.filter(|g| kept && g.vector_opening && g.shadow_opening) {
@@ -2295,7 +2350,13 @@ fn merge<I: Ids>(
                 // the vector area, so this only ever joins).
                 let (small, other) = smaller_first(&comps, a, b);
                 let between = portals_between(cx, cell_portals, ids, &mut owner, &comps[small].members, other);
-                kept = pa.min(pb) >= g.ratio * shadow(cx, &between, &frame);
+                let target = g.ratio * shadow(cx, &between, &frame);
+                if g.slices > 0 && !traced && pa.min(pb) < target {
+                    // The cuts were summed only as far as the opening needed: carried on
+                    // (from where they stopped) as far as the shadow needs.
+                    (pa, pb) = cut(&mut comps, target, &g);
+                }
+                kept = pa.min(pb) >= target;
             }
             if let Some(t) = trace.as_deref_mut() {
                 t.push(TraceStep {
@@ -3409,18 +3470,15 @@ mod tests {
         assert!(steps > 1000, "{steps}");
     }
 
-    /// `sliced_section` as first written (every member cut at every height, the plain sum).
+    /// `sliced_section` as first written (every member cut at every height, the plain sum),
+    /// at the extent of the hull of the members' vertices, built afresh.
     fn reference_sliced(cx: &CellComplex, c: &Comp, frame: &Frame, k: usize) -> f64 {
-        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-        for &m in &c.members {
-            for f in cx.cells[m as usize].faces().iter() {
-                for v in &f.verts {
-                    let h = height(frame, v);
-                    lo = lo.min(h);
-                    hi = hi.max(h);
-                }
-            }
-        }
+        let vertices: Vec<[f64; 3]> = c
+            .members
+            .iter()
+            .flat_map(|&m| cx.cells[m as usize].vertices())
+            .collect();
+        let (lo, hi) = extent(&Hull3::new(&vertices), frame);
         if hi.partial_cmp(&lo) != Some(Ordering::Greater) || k == 0 {
             return 0.0;
         }
@@ -3477,8 +3535,9 @@ mod tests {
         // A component grown by absorbing runs of cells (absorbing and absorbed in turn, so
         // the memo travels with the list that stays first and is dropped with the other),
         // judged on frames taken in turn from more than the memo keeps, with the number of
-        // cuts changing: every value equal to the plain sum's bits.
-        let mut compared = 0;
+        // cuts changing: every value equal to the plain sum's bits, and every decision
+        // against a target (summed only until it decides) the plain sum's.
+        let (mut compared, mut stopped) = (0, 0);
         for (name, cx) in complexes() {
             let active: Vec<u32> = cx.active_cells().map(|(id, _)| id.0).collect();
             let frames: Vec<Frame> = (0..SLICE_MEMO_FRAMES + 4)
@@ -3510,7 +3569,7 @@ mod tests {
                     // The run's own hull, and a memo of its own that must not survive
                     // when it is absorbed after the longer list.
                     section(&cx, &mut o, &frames[0]);
-                    sliced_section_memo_from(&cx, &mut o, &frames[0], 5, 1);
+                    sliced_section_reaching(&cx, &mut o, &frames[0], 5, f64::INFINITY, 1);
                 }
                 if step % 2 == 0 {
                     c.absorb_members(&mut o);
@@ -3530,21 +3589,32 @@ mod tests {
                     let (frame, k) = (&frames[f], if judged % 11 == 10 { 7 } else { 5 });
                     judged += 1;
                     section(&cx, &mut c, frame);
-                    let got = sliced_section_memo_from(&cx, &mut c, frame, k, 1);
                     let want = reference_sliced(&cx, &c, frame, k);
-                    assert_eq!(
-                        got.to_bits(),
-                        want.to_bits(),
-                        "{name}: {} members, judgement {judged}",
-                        c.members.len()
-                    );
-                    compared += (got > 0.0) as usize;
+                    // Mostly decisions (summed until they decide, leaving the memo part
+                    // way through the members), now and then the value itself.
+                    let target = match judged % 5 {
+                        0 => want * 0.25,
+                        1 => want,
+                        2 => want.next_up(),
+                        3 => want * 0.9,
+                        _ => f64::INFINITY,
+                    };
+                    let got = sliced_section_reaching(&cx, &mut c, frame, k, target, 1);
+                    let at = format!("{name}: {} members, judgement {judged}", c.members.len());
+                    assert_eq!(got >= target, want >= target, "{at}: decision at {target}");
+                    if got < target {
+                        assert_eq!(got.to_bits(), want.to_bits(), "{at}: value below {target}");
+                        compared += (got > 0.0) as usize;
+                    } else {
+                        stopped += (got < want) as usize;
+                    }
                 }
             }
             let memos = c.hull.as_ref().map_or(0, |h| h.slices.len());
             assert!((1..=SLICE_MEMO_FRAMES).contains(&memos), "{name}: {memos} memos");
         }
         assert!(compared > 100, "{compared}");
+        assert!(stopped > 20, "{stopped} decisions stopped before the last member");
     }
 
     use crate::geom::ConvexPolyhedron;
