@@ -2,7 +2,9 @@
 //! variant, traced, with the truth rooms located in the moved model. Prints every traced
 //! pair that joins two true rooms or that the gate kept apart, and the rooms isolated.
 //!
-//! `cargo run --release --example diag_rigid -- FAMILY SEED VARIANT [ARG]` (variants as
+//! `cargo run --release --example diag_rigid -- FAMILY SEED VARIANT [ARG]` (KEPT=1 also
+//! prints pairs kept apart between a room and another component, ALL=1 every pair kept
+//! apart, FIRST=1 traces the first pass instead of the second; variants as
 //! `diag_stress`: base, rot789, rot K, offset X, scale X, shuffle K).
 use portalfind::decimate::clearance::trace;
 use portalfind::decimate::{HeuristicKind, Settings};
@@ -54,7 +56,11 @@ fn main() {
         stop: HeuristicKind::Aperture.default_stop(),
         ..Settings::default()
     };
-    let gate = settings.heuristic.heuristic().aperture_gate();
+    let mut gate = settings.heuristic.heuristic().aperture_gate();
+    if std::env::var("FIRST").is_ok() {
+        // The first pass only (no boundary moves, no second pass).
+        gate = gate.map(|g| portalfind::decimate::clearance::ApertureGate { tunnels: false, ..g });
+    }
     let (dec, steps) = trace(&cx, &settings, gate);
     let n = cx.cells.len();
     let mut rooms: Vec<BTreeSet<usize>> = vec![BTreeSet::new(); n];
@@ -64,6 +70,22 @@ fn main() {
         }
     }
     let mut parent: Vec<usize> = (0..n).collect();
+    // Each set's highest cell (field value), and the truth room nearest to a cell's centroid.
+    let field = portalfind::decimate::clearance::CellField::new(&cx);
+    let mut top: Vec<usize> = (0..n).collect();
+    let nearest = |cell: usize| -> String {
+        let g = cx.cells[cell].centroid();
+        let mut best = (f64::INFINITY, String::new());
+        for (i, s) in samples.iter().enumerate() {
+            for p in s {
+                let d = (0..3).map(|k| (p[k] - g[k]).powi(2)).sum::<f64>();
+                if d < best.0 {
+                    best = (d, c.truth.rooms[i].name.clone());
+                }
+            }
+        }
+        format!("{} at {:.2}", best.1, best.0.sqrt())
+    };
     println!(
         "== {} {v}: {} rooms, {} active cells, {} steps traced, {} final cells",
         c.name,
@@ -82,7 +104,7 @@ fn main() {
         let (x, y) = (find(&mut parent, s.a.idx()), find(&mut parent, s.b.idx()));
         let (rx, ry) = (rooms[x].clone(), rooms[y].clone());
         let join = !rx.is_empty() && !ry.is_empty() && rx.is_disjoint(&ry);
-        if join || (s.kept && (!rx.is_empty() || !ry.is_empty()) && rx != ry && std::env::var("KEPT").is_ok()) {
+        if join || (s.kept && std::env::var("ALL").is_ok()) || (s.kept && (!rx.is_empty() || !ry.is_empty()) && rx != ry && std::env::var("KEPT").is_ok()) {
             println!(
                 "  {} w {:.4} peaks {:.3}/{:.3} saddle {:.3} Ap {:.2} Av {:.2} sec {:.2}/{:.2} vol {:.1}/{:.1} [{}] | [{}]",
                 if s.kept { "KEPT" } else { "JOIN" },
@@ -100,8 +122,20 @@ fn main() {
                 names(&ry)
             );
         }
+        if join {
+            println!(
+                "      peak cells: {} ({:.3}) | {} ({:.3})",
+                nearest(top[x]),
+                field.value[top[x]],
+                nearest(top[y]),
+                field.value[top[y]]
+            );
+        }
         if !s.kept {
             let (lo, hi) = (x.min(y), x.max(y));
+            if field.value[top[hi]] > field.value[top[lo]] {
+                top[lo] = top[hi];
+            }
             parent[hi] = lo;
             let r = rooms[hi].clone();
             rooms[lo].extend(r);
@@ -109,7 +143,6 @@ fn main() {
     }
     println!("  stop: {}", dec.stop);
     // The final cells' neighbouring pairs: peaks, sampled and refined saddles.
-    let field = portalfind::decimate::clearance::CellField::new(&cx);
     let part = &dec.partition;
     let room_of = |pc: usize| -> String {
         let mut r = BTreeSet::new();
