@@ -5,7 +5,7 @@
 //! `cargo run --release --example diag_rigid -- FAMILY SEED VARIANT [ARG]` (KEPT=1 also
 //! prints pairs kept apart between a room and another component, ALL=1 every pair kept
 //! apart, FIRST=1 traces the first pass instead of the second; variants as
-//! `diag_stress`: base, rot789, rot K, offset X, scale X, shuffle K).
+//! `diag_stress`: base, rot789, rot K, offset X, scale X, shuffle K, noise X).
 use portalfind::decimate::clearance::trace;
 use portalfind::decimate::{HeuristicKind, Settings};
 use portalfind::experiment::eval::locate_in_complex;
@@ -33,6 +33,7 @@ fn main() {
         "offset" => Variant::Offset(arg),
         "scale" => Variant::Scale(arg),
         "shuffle" => Variant::Shuffle(arg as u64),
+        "noise" => Variant::Noise(arg),
         v => panic!("variant {v}"),
     };
     let c = case(fam, seed).expect("case");
@@ -104,7 +105,10 @@ fn main() {
         let (x, y) = (find(&mut parent, s.a.idx()), find(&mut parent, s.b.idx()));
         let (rx, ry) = (rooms[x].clone(), rooms[y].clone());
         let join = !rx.is_empty() && !ry.is_empty() && rx.is_disjoint(&ry);
-        if join || (s.kept && std::env::var("ALL").is_ok()) || (s.kept && (!rx.is_empty() || !ry.is_empty()) && rx != ry && std::env::var("KEPT").is_ok()) {
+        if join
+            || (s.kept && std::env::var("ALL").is_ok())
+            || (s.kept && (!rx.is_empty() || !ry.is_empty()) && rx != ry && std::env::var("KEPT").is_ok())
+        {
             println!(
                 "  {} w {:.4} peaks {:.3}/{:.3} saddle {:.3} Ap {:.2} Av {:.2} sec {:.2}/{:.2} vol {:.1}/{:.1} [{}] | [{}]",
                 if s.kept { "KEPT" } else { "JOIN" },

@@ -62,6 +62,7 @@ fn main() {
             vector_opening: std::env::var("VECTOR").is_ok_and(|v| v != "0"),
             shadow_opening: std::env::var("SHADOW").is_ok_and(|v| v != "0"),
             tunnels: std::env::var("TUNNELS").is_ok_and(|v| v != "0"),
+            core_cut: std::env::var("CORE_CUT").is_ok_and(|v| v != "0"),
         }),
         _ => None,
     };
