@@ -1650,6 +1650,28 @@ fn section(cx: &CellComplex, c: &mut Comp, frame: &Frame) -> f64 {
     if a.is_finite() { a.max(0.0) } else { 0.0 }
 }
 
+/// The area of the 2D hull of `cells`' vertices projected on `frame` (the projected
+/// section of a set of cells that has no cached hull).
+fn projected(cx: &CellComplex, cells: &[u32], frame: &Frame) -> f64 {
+    let pts: Vec<P2> = cells
+        .iter()
+        .flat_map(|&m| cx.cells[m as usize].vertices())
+        .map(|p| frame.project(&p))
+        .collect();
+    let a = polygon_area(&hull2(pts));
+    if a.is_finite() { a.max(0.0) } else { 0.0 }
+}
+
+/// The lowest and highest height of `cells`' vertices above `frame`'s plane (the extent of a
+/// set of cells that has no cached hull).
+fn span(cx: &CellComplex, cells: &[u32], frame: &Frame) -> (f64, f64) {
+    member_ranges(cx, cells, frame)
+        .into_iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| {
+            (lo.min(r.0), hi.max(r.1))
+        })
+}
+
 /// The component's extent along `frame`'s normal: the lowest and highest height of its
 /// hull's points. The hull ([`Hull3`], exact orientation tests) holds every extreme point
 /// of the members' vertices, so this is their extent without visiting every member (a
@@ -2508,37 +2530,38 @@ fn merge<I: Ids>(
                         // section is at least `ratio` times the cut's opening.
                         let f2 = cl.frame(cx);
                         let target = g.ratio * narrower;
-                        let side = |cells: &[u32], peak: f64| Comp {
-                            peak,
-                            volume: cells.iter().map(|&c| cx.cell_volume(CellId(c))).sum(),
-                            members: cells.to_vec().into(),
-                            ..Comp::default()
-                        };
-                        let mut two = [side(&sides[0], comps[a].peak), side(&sides[1], comps[b].peak)];
-                        let mut k2 = two.iter().all(|c| g.holds_ball(c.peak, c.volume));
+                        // The sides have no cached hulls and are judged once: their
+                        // projected section is the 2D hull of their projected vertices
+                        // and their extent along the normal their vertices' (building a
+                        // 3D hull for each was a fifth of the decimation on a real level).
+                        let volume = |cells: &[u32]| -> f64 { cells.iter().map(|&c| cx.cell_volume(CellId(c))).sum() };
+                        let mut k2 = g.holds_ball(comps[a].peak, volume(&sides[0]))
+                            && g.holds_ball(comps[b].peak, volume(&sides[1]));
                         let mut q = (0.0, 0.0);
                         if k2 {
-                            q = (section(cx, &mut two[0], &f2), section(cx, &mut two[1], &f2));
+                            q = (projected(cx, &sides[0], &f2), projected(cx, &sides[1], &f2));
                             k2 = q.0.min(q.1) >= target;
                         }
-                        // The sides' parallel cuts, each summed only until it decides.
-                        let sliced = |two: &mut [Comp; 2], target: f64| {
-                            let s0 = sliced_section_reaching(cx, &mut two[0], &f2, g.slices, target, usize::MAX);
+                        // The sides' parallel cuts, each summed only until it decides (a
+                        // second target resumes the sums).
+                        let mut memos = [SliceMemo::default(), SliceMemo::default()];
+                        let mut sliced = |target: f64| {
+                            let s0 = memos[0].extend(cx, &sides[0], &f2, span(cx, &sides[0], &f2), g.slices, target);
                             let s1 = if s0 >= target {
-                                sliced_section_reaching(cx, &mut two[1], &f2, g.slices, target, usize::MAX)
+                                memos[1].extend(cx, &sides[1], &f2, span(cx, &sides[1], &f2), g.slices, target)
                             } else {
                                 f64::INFINITY
                             };
                             (s0, s1)
                         };
                         if k2 && g.slices > 0 {
-                            q = sliced(&mut two, target);
+                            q = sliced(target);
                             k2 = q.0.min(q.1) >= target;
                         }
                         if k2 && g.vector_opening && g.shadow_opening {
                             let t2 = g.ratio * shadow(cx, &portals, &f2);
                             if g.slices > 0 && q.0.min(q.1) < t2 {
-                                q = sliced(&mut two, t2);
+                                q = sliced(t2);
                             }
                             k2 = q.0.min(q.1) >= t2;
                         }
