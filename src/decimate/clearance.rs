@@ -1662,14 +1662,18 @@ fn projected(cx: &CellComplex, cells: &[u32], frame: &Frame) -> f64 {
     if a.is_finite() { a.max(0.0) } else { 0.0 }
 }
 
-/// The lowest and highest height of `cells`' vertices above `frame`'s plane (the extent of a
-/// set of cells that has no cached hull).
-fn span(cx: &CellComplex, cells: &[u32], frame: &Frame) -> (f64, f64) {
-    member_ranges(cx, cells, frame)
-        .into_iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| {
-            (lo.min(r.0), hi.max(r.1))
-        })
+/// A memo for cutting `cells` along `frame` that has every member's range already, and
+/// the cells' extent along the normal (their vertices' lowest and highest height): for a
+/// set of cells that has no cached hull, whose ranges give the extent (one pass over the
+/// members for both).
+fn fresh_memo(cx: &CellComplex, cells: &[u32], frame: &Frame) -> (SliceMemo, (f64, f64)) {
+    let mut memo = SliceMemo::default();
+    let mut extent = (f64::INFINITY, f64::NEG_INFINITY);
+    for r in member_ranges(cx, cells, frame) {
+        extent = (extent.0.min(r.0), extent.1.max(r.1));
+        memo.ranges.push(outward(r));
+    }
+    (memo, extent)
 }
 
 /// The component's extent along `frame`'s normal: the lowest and highest height of its
@@ -2544,11 +2548,15 @@ fn merge<I: Ids>(
                         }
                         // The sides' parallel cuts, each summed only until it decides (a
                         // second target resumes the sums).
-                        let mut memos = [SliceMemo::default(), SliceMemo::default()];
+                        let mut memos: [Option<(SliceMemo, (f64, f64))>; 2] = [None, None];
+                        let mut cut_side = |i: usize, target: f64| {
+                            let (memo, extent) = memos[i].get_or_insert_with(|| fresh_memo(cx, &sides[i], &f2));
+                            memo.extend(cx, &sides[i], &f2, *extent, g.slices, target)
+                        };
                         let mut sliced = |target: f64| {
-                            let s0 = memos[0].extend(cx, &sides[0], &f2, span(cx, &sides[0], &f2), g.slices, target);
+                            let s0 = cut_side(0, target);
                             let s1 = if s0 >= target {
-                                memos[1].extend(cx, &sides[1], &f2, span(cx, &sides[1], &f2), g.slices, target)
+                                cut_side(1, target)
                             } else {
                                 f64::INFINITY
                             };
