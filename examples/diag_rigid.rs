@@ -4,7 +4,8 @@
 //!
 //! `cargo run --release --example diag_rigid -- FAMILY SEED VARIANT [ARG]` (KEPT=1 also
 //! prints pairs kept apart between a room and another component, ALL=1 every pair kept
-//! apart, FIRST=1 traces the first pass instead of the second; variants as
+//! apart, FIRST=1 traces the first pass instead of the second, TRACK=ID every step of the
+//! component holding cell ID (ids as the peak-cell lines print them); variants as
 //! `diag_stress`: base, rot789, rot K, offset X, scale X, shuffle K, noise X).
 use portalfind::decimate::clearance::trace;
 use portalfind::decimate::{HeuristicKind, Settings};
@@ -101,11 +102,18 @@ fn main() {
             .collect::<Vec<_>>()
             .join("+")
     };
+    // TRACK=cell: also every step whose side holds that cell.
+    let track: Option<usize> = std::env::var("TRACK").ok().map(|t| t.parse().expect("TRACK=cell id"));
     for s in &steps {
         let (x, y) = (find(&mut parent, s.a.idx()), find(&mut parent, s.b.idx()));
         let (rx, ry) = (rooms[x].clone(), rooms[y].clone());
         let join = !rx.is_empty() && !ry.is_empty() && rx.is_disjoint(&ry);
+        let tracked = track.is_some_and(|t| {
+            let r = find(&mut parent, t);
+            r == x || r == y
+        });
         if join
+            || tracked
             || (s.kept && std::env::var("ALL").is_ok())
             || (s.kept && (!rx.is_empty() || !ry.is_empty()) && rx != ry && std::env::var("KEPT").is_ok())
         {
@@ -128,9 +136,11 @@ fn main() {
         }
         if join {
             println!(
-                "      peak cells: {} ({:.3}) | {} ({:.3})",
+                "      peak cells: #{} {} ({:.3}) | #{} {} ({:.3})",
+                top[x],
                 nearest(top[x]),
                 field.value[top[x]],
+                top[y],
                 nearest(top[y]),
                 field.value[top[y]]
             );
