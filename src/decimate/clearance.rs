@@ -390,8 +390,26 @@ impl CellField {
         // may stop there. The legs start at the cell's best sample: the first of the
         // highest clearances at its samples, the very value and sample `best_sample` finds
         // (its bounded queries give the bits of these).
+        //
+        // Only a sample's clearance above `s0` matters: a leg ending at or below it is at
+        // or below it, and `s0` is every floor below. So the queries stop at `s0`
+        // (`distance_above`: exact above it, else a value at or below it) and are bounded
+        // by the centroid's (the first sample's) clearance plus the way from it (the field
+        // is 1-Lipschitz; the bound does not change the answer). The first of the highest
+        // is the same sample when the highest is above `s0`; when it is not, neither
+        // answer's `top` is above `s0`, and both return below.
         let clearances = |xs: &[[f64; 3]]| -> (Vec<f64>, f64, [f64; 3]) {
-            let ds: Vec<f64> = xs.iter().map(|&x| self.field.distance(x)).collect();
+            let (g, dg) = (xs[0], self.field.distance(xs[0]));
+            let ds: Vec<f64> = xs
+                .iter()
+                .map(|&x| {
+                    if x == g {
+                        dg
+                    } else {
+                        self.field.distance_above(x, s0, dg + dist(g, x))
+                    }
+                })
+                .collect();
             let (mut d, mut best) = (f64::NEG_INFINITY, xs[0]);
             for (&x, &dx) in xs.iter().zip(&ds) {
                 if dx > d {
@@ -408,22 +426,50 @@ impl CellField {
         if s0 >= top {
             return if s0.is_finite() { s0 } else { self.passage[k] };
         }
-        let leg = |xs: &[[f64; 3]], (ds, d, best): &(Vec<f64>, f64, [f64; 3])| -> Vec<([f64; 3], f64, f64)> {
-            xs.iter()
+        // Each side's legs, marched when first needed and kept: (the cell sample, its
+        // clearance, the leg's value or NaN until marched), in decreasing order of the
+        // sample's clearance (a NaN, which no test below skips, first). A leg is never
+        // above the clearance at its end (its last sample), so once that is at or below
+        // the floor, neither it nor any later leg can count. A side's value is the maximum
+        // over its legs of the lower of the leg and the way on from its end; every such
+        // term above the floor is exact (a leg or way marched against a floor is exact
+        // when above it, else at or below it; a leg is marched against `s`, which only
+        // rises from one portal sample to the next), so the maximum's bits do not depend
+        // on the order or on when a leg was marched.
+        let legs = |xs: &[[f64; 3]], ds: &[f64]| -> Vec<([f64; 3], f64, std::cell::Cell<f64>)> {
+            let key = |d: f64| if d.is_nan() { f64::INFINITY } else { d };
+            let mut v: Vec<_> = xs
+                .iter()
                 .zip(ds)
-                .map(|(&x, &dx)| (x, segment_min_from(&self.field, *best, *d, x, dx, s0), dx))
-                .collect()
+                .map(|(&x, &dx)| (x, dx, std::cell::Cell::new(f64::NAN)))
+                .collect();
+            v.sort_by(|p, q| key(q.1).total_cmp(&key(p.1)));
+            v
         };
-        let (la, lb) = (leg(&sa, &ca), leg(&sb, &cb));
+        let (la, lb) = (legs(&sa, &ca.0), legs(&sb, &cb.0));
         // Values at or below `floor` only matter as such (callers take `max(floor, ·)`).
-        let side = |legs: &[([f64; 3], f64, f64)], y: [f64; 3], dy: f64, floor: f64| {
+        let side = |legs: &[([f64; 3], f64, std::cell::Cell<f64>)],
+                    (_, d, best): &(Vec<f64>, f64, [f64; 3]),
+                    y: [f64; 3],
+                    dy: f64,
+                    floor: f64| {
             let mut v = f64::NEG_INFINITY;
-            for &(x, l, dx) in legs {
+            for (x, dx, l) in legs {
                 let f = v.max(floor);
-                if l <= f {
+                if *dx <= f {
+                    break;
+                }
+                let mut lv = l.get();
+                if lv.is_nan() {
+                    // Against the side's floor (`s`, which only rises), not `f`: a later
+                    // portal sample's loop starts again from `s`.
+                    lv = segment_min_from(&self.field, *best, *d, *x, *dx, floor);
+                    l.set(lv);
+                }
+                if lv <= f {
                     continue;
                 }
-                v = v.max(l.min(segment_min_from(&self.field, x, dx, y, dy, f)));
+                v = v.max(lv.min(segment_min_from(&self.field, *x, *dx, y, dy, f)));
             }
             v
         };
@@ -437,19 +483,26 @@ impl CellField {
                 ys.push(lerp(&v, &m, 0.25));
                 ys.push(lerp(&m, &mid(v, piece.verts[(i + 1) % n]), 0.75));
             }
+            // The piece centroid's clearance bounds the others' (1-Lipschitz), and only a
+            // value above `s` matters (`distance_above`: exact above it).
+            let dm = if s < top { self.field.distance(m) } else { f64::NAN };
             for y in ys {
                 if s >= top {
                     break;
                 }
-                let dy = self.field.distance(y);
+                let dy = if y == m {
+                    dm
+                } else {
+                    self.field.distance_above(y, s, dm + dist(m, y))
+                };
                 if dy <= s {
                     continue;
                 }
-                let va = side(&la, y, dy, s);
+                let va = side(&la, &ca, y, dy, s);
                 if va <= s {
                     continue;
                 }
-                s = s.max(va.min(side(&lb, y, dy, s)));
+                s = s.max(va.min(side(&lb, &cb, y, dy, s)));
             }
         }
         if s.is_finite() { s } else { self.passage[k] }
