@@ -285,24 +285,51 @@ fn portal_passage(
         // rises), so the queries stop at the first triangle at or below `s`; `dm` is then
         // still an upper bound of the centroid's clearance.
         let dm = field.distance_above(m, s, f64::INFINITY);
-        let ys = std::iter::once(m).chain(piece.verts.iter().map(|&v| mid(m, v)));
-        for y in ys {
-            // Bounded by the piece centroid's clearance plus the way from it.
-            let dy = if y == m {
-                dm
-            } else {
-                field.distance_above(y, s, dm + dist(m, y))
-            };
-            // Upper bound first: a path is never higher than any of its points.
-            if dy <= s {
-                continue;
-            }
-            // Each leg only matters above `s` (the result is `max(s, min(legs))`).
+        // Each leg only matters above `s` (the result is `max(s, min(legs))`).
+        let pass = |y: [f64; 3], dy: f64, s: f64| {
             let first = segment_min_from(field, xa, da, y, dy, s);
             if first <= s {
-                continue;
+                return s;
             }
-            s = s.max(first.min(segment_min_from(field, y, dy, xb, db, s)));
+            s.max(first.min(segment_min_from(field, y, dy, xb, db, s)))
+        };
+        // The centroid first when it could end the search (its clearance reaches `top`):
+        // then the others are not asked. Otherwise it is sorted with them.
+        let first = dm >= top;
+        if first {
+            s = pass(m, dm, s);
+            if s >= top {
+                break;
+            }
+        }
+        // The other samples' clearances (bounded by the piece centroid's plus the way from
+        // it; exact above the `s` they were asked with, which later values of `s` only
+        // exceed), highest first: `s` is the maximum over the samples of the lower of
+        // their two legs, every term above `s` exact, so the order does not change its
+        // bits; highest first, it rises early and the rest stop at the first sample at
+        // or below it.
+        let key = |d: f64| if d.is_nan() { f64::INFINITY } else { d };
+        let mut ys: Vec<([f64; 3], f64)> = (!first)
+            .then_some((m, dm))
+            .into_iter()
+            .chain(piece.verts.iter().map(|&v| {
+                let y = mid(m, v);
+                (
+                    y,
+                    if y == m {
+                        dm
+                    } else {
+                        field.distance_above(y, s, dm + dist(m, y))
+                    },
+                )
+            }))
+            .collect();
+        ys.sort_by(|p, q| key(q.1).total_cmp(&key(p.1)));
+        for (y, dy) in ys {
+            if dy <= s {
+                break;
+            }
+            s = pass(y, dy, s);
             if s >= top {
                 break;
             }
@@ -473,36 +500,67 @@ impl CellField {
             }
             v
         };
+        // One portal sample `y` (clearance `dy`): the best path through it, if above `s`.
+        let through = |y: [f64; 3], dy: f64, s: f64| {
+            if dy <= s {
+                return s;
+            }
+            let va = side(&la, &ca, y, dy, s);
+            if va <= s {
+                return s;
+            }
+            s.max(va.min(side(&lb, &cb, y, dy, s)))
+        };
+        let key = |d: f64| if d.is_nan() { f64::INFINITY } else { d };
         let mut s = s0;
         for piece in &p.pieces {
+            if s >= top {
+                break;
+            }
             let m = piece.centroid();
             let n = piece.verts.len();
-            let mut ys = vec![m];
-            for (i, &v) in piece.verts.iter().enumerate() {
-                ys.push(mid(m, v));
-                ys.push(lerp(&v, &m, 0.25));
-                ys.push(lerp(&m, &mid(v, piece.verts[(i + 1) % n]), 0.75));
-            }
-            // The piece centroid's clearance bounds the others' (1-Lipschitz), and only a
-            // value above `s` matters (`distance_above`: exact above it).
-            let dm = if s < top { self.field.distance(m) } else { f64::NAN };
-            for y in ys {
+            // The piece centroid first when it could end the search (its clearance
+            // reaches `top`). The other samples' clearances are bounded by the centroid's
+            // plus the way from it (1-Lipschitz) and asked only above `s` (exact above it,
+            // and `s` only rises); they are tried highest first, as in `portal_passage`:
+            // `s` is the maximum over the samples of their paths' values, each exact above
+            // `s`, so the order does not change its bits, and the first sample at or below
+            // `s` ends the piece.
+            let dm = self.field.distance(m);
+            let first = dm >= top;
+            if first {
+                s = through(m, dm, s);
                 if s >= top {
                     break;
                 }
-                let dy = if y == m {
-                    dm
-                } else {
-                    self.field.distance_above(y, s, dm + dist(m, y))
-                };
+            }
+            let mut ys: Vec<([f64; 3], f64)> = Vec::with_capacity(1 + 3 * n);
+            if !first {
+                ys.push((m, dm));
+            }
+            for (i, &v) in piece.verts.iter().enumerate() {
+                for y in [
+                    mid(m, v),
+                    lerp(&v, &m, 0.25),
+                    lerp(&m, &mid(v, piece.verts[(i + 1) % n]), 0.75),
+                ] {
+                    let dy = if y == m {
+                        dm
+                    } else {
+                        self.field.distance_above(y, s, dm + dist(m, y))
+                    };
+                    ys.push((y, dy));
+                }
+            }
+            ys.sort_by(|p, q| key(q.1).total_cmp(&key(p.1)));
+            for (y, dy) in ys {
                 if dy <= s {
-                    continue;
+                    break;
                 }
-                let va = side(&la, &ca, y, dy, s);
-                if va <= s {
-                    continue;
+                s = through(y, dy, s);
+                if s >= top {
+                    break;
                 }
-                s = s.max(va.min(side(&lb, &cb, y, dy, s)));
             }
         }
         if s.is_finite() { s } else { self.passage[k] }
