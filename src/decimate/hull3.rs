@@ -13,7 +13,7 @@
 //! hulls of tens to a few hundred vertices.
 
 use crate::predicates::{P3, in_filter_range, orient3d, orient3d_in_range};
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 /// A convex hull: points and outward triangles over them.
 #[derive(Clone, Debug, Default)]
@@ -165,9 +165,16 @@ impl Hull3 {
         let inner = (points.len() >= INNER_MIN_POINTS && self.faces.len() >= INNER_MIN_FACES)
             .then(|| self.inner())
             .flatten();
+        // A point equal (bit for bit) to one already met — a hull point, or one inserted
+        // or skipped before it in this call — is inside or on the hull, which only grows:
+        // `insert` would change nothing. Neighbouring cells share vertices, so many of an
+        // absorbed member's vertices are already hull points, and on a wall off the axis
+        // planes (exactly coplanar, which no filter decides) every face through them took
+        // the exact path.
+        let mut known: HashSet<[u64; 3], crate::base::hash::FxBuild> = self.pts.iter().map(bits).collect();
         let mut changed = false;
         for p in points {
-            if inner.as_ref().is_some_and(|h| h.holds(p)) {
+            if !known.insert(bits(p)) || inner.as_ref().is_some_and(|h| h.holds(p)) {
                 continue;
             }
             changed |= self.insert(p);
@@ -381,9 +388,10 @@ mod tests {
         }
     }
 
-    /// Points inserted in a batch (tested against the inner hull first) give the hull of
-    /// inserting them one by one, bit for bit: random clouds, points on the hull's faces
-    /// and edges, and copies of its vertices; and the inner hull skips most of them.
+    /// Points inserted in a batch (tested against the inner hull first, and skipped when
+    /// equal to one met before) give the hull of inserting them one by one, bit for bit:
+    /// random clouds, points on the hull's faces and edges, copies of its vertices and of
+    /// the batch's own points; and the inner hull skips most of them.
     #[test]
     fn inner_hull_skips_only_points_that_change_nothing() {
         let mut r = SplitMix64(53);
@@ -412,6 +420,9 @@ mod tests {
                     (p[2] + q[2] + s[2]) / 3.0,
                 ]);
             }
+            // Copies of points met earlier in the same batch (inserted or not).
+            let again: Vec<P3> = b.iter().step_by(7).copied().collect();
+            b.extend(again);
             let mut one_by_one = h0.clone();
             let mut changed = false;
             for p in &b {
