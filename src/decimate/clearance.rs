@@ -410,7 +410,6 @@ impl CellField {
     pub fn refined_passage(&self, cx: &CellComplex, k: usize) -> f64 {
         let p = &cx.portals[k];
         let [a, b] = p.cells;
-        let (sa, sb) = (cell_samples(&cx.cells[a.idx()]), cell_samples(&cx.cells[b.idx()]));
         let s0 = self.passage[k];
         // Per side, the best first leg to each cell sample (with the clearance at its end).
         // A leg at or below `s0` never counts (`s` only rises from `s0`), so its marching
@@ -445,13 +444,21 @@ impl CellField {
             }
             (ds, d, best)
         };
-        let (ca, cb) = (clearances(&sa), clearances(&sb));
         // Every leg starts at its side's best sample (its first marching sample is that
         // clearance), so a side's value is never above it, and no path raises `s` past the
-        // lower of the two: once there, nothing more is queried (the same bits).
+        // lower of the two: once there, nothing more is queried (the same bits) — nor is
+        // the second cell's sampled when the first's best is already at or below `s0`.
+        let done = || if s0.is_finite() { s0 } else { self.passage[k] };
+        let sa = cell_samples(&cx.cells[a.idx()]);
+        let ca = clearances(&sa);
+        if s0 >= ca.1 {
+            return done();
+        }
+        let sb = cell_samples(&cx.cells[b.idx()]);
+        let cb = clearances(&sb);
         let top = ca.1.min(cb.1);
         if s0 >= top {
-            return if s0.is_finite() { s0 } else { self.passage[k] };
+            return done();
         }
         // Each side's legs, marched when first needed and kept: (the cell sample, its
         // clearance, the leg's value or NaN until marched), in decreasing order of the
