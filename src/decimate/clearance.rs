@@ -231,6 +231,13 @@ fn segment_min_from(field: &ClearanceField, p: [f64; 3], dp: f64, q: [f64; 3], d
     }
 }
 
+/// Sorts by clearance, highest first (stable); a NaN, which no `<=` test skips, counts as
+/// the highest.
+fn highest_first<T>(v: &mut [T], clearance: impl Fn(&T) -> f64) {
+    let key = |d: f64| if d.is_nan() { f64::INFINITY } else { d };
+    v.sort_by(|p, q| key(clearance(q)).total_cmp(&key(clearance(p))));
+}
+
 fn mid(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     lerp(&a, &b, 0.5)
 }
@@ -308,7 +315,6 @@ fn portal_passage(
         // their two legs, every term above `s` exact, so the order does not change its
         // bits; highest first, it rises early and the rest stop at the first sample at
         // or below it.
-        let key = |d: f64| if d.is_nan() { f64::INFINITY } else { d };
         let mut ys: Vec<([f64; 3], f64)> = (!first)
             .then_some((m, dm))
             .into_iter()
@@ -324,7 +330,7 @@ fn portal_passage(
                 )
             }))
             .collect();
-        ys.sort_by(|p, q| key(q.1).total_cmp(&key(p.1)));
+        highest_first(&mut ys, |y| y.1);
         for (y, dy) in ys {
             if dy <= s {
                 break;
@@ -471,13 +477,12 @@ impl CellField {
         // rises from one portal sample to the next), so the maximum's bits do not depend
         // on the order or on when a leg was marched.
         let legs = |xs: &[[f64; 3]], ds: &[f64]| -> Vec<([f64; 3], f64, std::cell::Cell<f64>)> {
-            let key = |d: f64| if d.is_nan() { f64::INFINITY } else { d };
             let mut v: Vec<_> = xs
                 .iter()
                 .zip(ds)
                 .map(|(&x, &dx)| (x, dx, std::cell::Cell::new(f64::NAN)))
                 .collect();
-            v.sort_by(|p, q| key(q.1).total_cmp(&key(p.1)));
+            highest_first(&mut v, |l| l.1);
             v
         };
         let (la, lb) = (legs(&sa, &ca.0), legs(&sb, &cb.0));
@@ -518,7 +523,6 @@ impl CellField {
             }
             s.max(va.min(side(&lb, &cb, y, dy, s)))
         };
-        let key = |d: f64| if d.is_nan() { f64::INFINITY } else { d };
         let mut s = s0;
         for piece in &p.pieces {
             if s >= top {
@@ -559,7 +563,7 @@ impl CellField {
                     ys.push((y, dy));
                 }
             }
-            ys.sort_by(|p, q| key(q.1).total_cmp(&key(p.1)));
+            highest_first(&mut ys, |y| y.1);
             for (y, dy) in ys {
                 if dy <= s {
                     break;
