@@ -66,6 +66,7 @@ pub use validate::{ComplexError, ComplexValidation};
 
 use std::borrow::Cow;
 
+use crate::base::vec::key;
 use crate::delaunay::FACE_SLOTS;
 use crate::geom::{ConvexPolygon, ConvexPolyhedron, Plane, check_faces, contains_of, moments_of, vertices_of};
 use crate::ids::{CellId, PolygonId, TetId};
@@ -172,6 +173,26 @@ impl TetShape {
     /// The four faces as inline triangles (no heap block).
     pub fn faces(&self) -> [ConvexPolygon; 4] {
         std::array::from_fn(|i| ConvexPolygon::from_slice(&self.face(i)))
+    }
+
+    /// The distinct corners in order of first appearance along faces `0..4`, deduplicated
+    /// by [`key`] as [`vertices_of`] does: the same points in the same order as
+    /// `vertices_of(&self.faces())`, without building the faces (the collapses ask for
+    /// the vertices of thousands of cells per judgement on real levels).
+    pub fn vertices(&self) -> Vec<P3> {
+        let mut keys = [[0u64; 3]; 4];
+        let mut out = Vec::with_capacity(4);
+        for i in 0..4 {
+            for v in self.face(i) {
+                let k = key(&v);
+                // At most four distinct keys: the corners.
+                if !keys[..out.len()].contains(&k) {
+                    keys[out.len()] = k;
+                    out.push(v);
+                }
+            }
+        }
+        out
     }
 
     /// The materialised polyhedron (faces in order `0..4`, tags `tags`).
@@ -326,7 +347,10 @@ impl Cell {
 
     /// Distinct vertices, in order of first appearance (as [`ConvexPolyhedron::vertices`]).
     pub fn vertices(&self) -> Vec<P3> {
-        vertices_of(&self.faces())
+        match &self.shape {
+            Shape::Tet(t) => t.vertices(),
+            Shape::Poly(p) => vertices_of(&p.faces),
+        }
     }
 
     /// Frees the geometry (no faces, no tags); ids and flags stay.
@@ -928,6 +952,36 @@ mod tests {
         assert_eq!(cx.volumes.len(), cx.cells.len());
         let read: Vec<u64> = alive.iter().map(|&c| cx.cell_volume(c).to_bits()).collect();
         assert_eq!(read, own);
+    }
+
+    /// An implicit tetrahedron's vertices are `vertices_of` its faces, bit for bit and in
+    /// order: every cell of a complex, and tetrahedra with signed zeros (one key) in every
+    /// corner slot and loop start.
+    #[test]
+    fn tet_vertices_equal_the_vertices_of_its_faces() {
+        let bits = |v: &[P3]| v.iter().map(|p| p.map(f64::to_bits)).collect::<Vec<_>>();
+        let tm = crate::generate::thesis::by_name("four_room_distorted").unwrap();
+        let m = crate::model::from_soup(tm.name, tm.soup.vertices.clone(), tm.soup.polygons.clone()).unwrap();
+        let cx = crate::pipeline::complex_of(&m).unwrap();
+        let mut tets = 0;
+        for c in cx.cells.iter().filter(|c| c.alive) {
+            let (fast, slow) = (c.vertices(), vertices_of(&c.faces()));
+            assert_eq!(bits(&fast), bits(&slow));
+            tets += matches!(c.shape, Shape::Tet(_)) as usize;
+        }
+        assert!(tets > 100, "{tets}");
+        let corners = [[0.0, 0.0, 0.0], [-0.0, 1.0, 0.0], [1.0, -0.0, 0.0], [0.0, 0.0, -1.0]];
+        for rot in 0..4 {
+            for start in 0..81u32 {
+                let t = TetShape {
+                    corners: std::array::from_fn(|i| corners[(i + rot) % 4]),
+                    tags: [0, 1, 2, 3],
+                    start: std::array::from_fn(|i| (start / 3u32.pow(i as u32) % 3) as u8),
+                };
+                let faces = t.faces();
+                assert_eq!(bits(&t.vertices()), bits(&vertices_of(&faces)), "{rot} {start}");
+            }
+        }
     }
 
     /// The compact forms are what they claim: an implicit tetrahedron's cell and a

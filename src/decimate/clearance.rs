@@ -107,6 +107,7 @@ use super::heuristic::{PairContext, sanitize};
 use super::hull3::Hull3;
 use super::project::{Frame, P2, hull2, hull2_into, polygon_area, union_area};
 use super::{Decimation, DecimationStats, Settings, Step, StopReason, StopRule};
+use crate::base::hash::FxBuild;
 use crate::base::vec::{lerp, norm, normalize};
 use crate::complex::{Cell, CellComplex};
 use crate::geom::ClearanceField;
@@ -1527,17 +1528,30 @@ fn core_cut(
     }
     let cells: Vec<u32> = ca.members.iter().chain(cb.members.iter()).copied().collect();
     let na = ca.members.len();
-    let index: HashMap<u32, u32> = cells.iter().enumerate().map(|(i, &c)| (c, i as u32)).collect();
+    let index: HashMap<u32, u32, FxBuild> = cells.iter().enumerate().map(|(i, &c)| (c, i as u32)).collect();
     let value = |i: usize| field.value[cells[i] as usize];
-    // The neighbours of cell `i` among the pair's cells, with the portal between them.
-    let (cells_ref, index_ref) = (&cells, &index);
-    let neighbours = |i: usize| {
-        let c = cells_ref[i];
-        cell_portals.of(c as usize).iter().filter_map(move |&k| {
+    // The neighbours of each cell among the pair's cells, with the portal between them, in
+    // `cell_portals` order: gathered once (`adj[start[i]..start[i + 1]]`), since the
+    // cores, the edges and the cut's portals each walk them.
+    let mut start: Vec<u32> = Vec::with_capacity(cells.len() + 1);
+    let mut adj: Vec<(u32, u32)> = Vec::new();
+    start.push(0);
+    for &c in &cells {
+        for &k in cell_portals.of(c as usize) {
             let [x, y] = cx.portals[k as usize].cells;
             let o = if x.0 == c { y.0 } else { x.0 };
-            index_ref.get(&o).map(|&j| (j as usize, k))
-        })
+            if let Some(&j) = index.get(&o) {
+                adj.push((j, k));
+            }
+        }
+        start.push(adj.len() as u32);
+    }
+    drop(index);
+    let (adj_ref, start_ref) = (&adj, &start);
+    let neighbours = move |i: usize| {
+        adj_ref[start_ref[i] as usize..start_ref[i + 1] as usize]
+            .iter()
+            .map(|&(j, k)| (j as usize, k))
     };
     // Flow nodes: 0 the source (a's core), 1 the sink (b's core), 2.. the other cells.
     let mut node = vec![u32::MAX; cells.len()];
