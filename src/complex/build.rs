@@ -243,6 +243,7 @@ impl CellComplex {
             hull_through: Vec::new(),
             neighbour_log: Vec::new(),
             volumes: Vec::new(),
+            conforming: Vec::new(),
         }
     }
 
@@ -324,6 +325,7 @@ impl CellComplex {
                     .map(|s| s as u8)
             })
             .collect();
+        self.conforming = chosen.iter().map(Option::is_some).collect();
         let mut pending = Vec::new();
         for (k, poly) in model.polygons.iter().enumerate() {
             let Some(s) = chosen[k] else {

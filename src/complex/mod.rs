@@ -696,6 +696,11 @@ pub struct CellComplex {
     /// Each cell's volume, once the cells are final ([`CellComplex::cache_volumes`]; NaN
     /// for a dead cell; empty: not cached). A split clears it.
     volumes: Vec<f64>,
+    /// Per model polygon: attached without geometry because its fan triangles are faces of
+    /// the tetrahedralization (`attach_conforming`; empty when not built from one). Such a
+    /// polygon cannot cross the interior of a tetrahedron of that tetrahedralization, so
+    /// [`CellComplex::check_no_crossing`] does not test it against implicit tetrahedra.
+    pub(crate) conforming: Vec<bool>,
 }
 
 impl CellComplex {
@@ -725,6 +730,7 @@ impl CellComplex {
             hull_through: Vec::new(),
             neighbour_log: Vec::new(),
             volumes: Vec::new(),
+            conforming: Vec::new(),
         }
     }
 
