@@ -424,11 +424,9 @@ impl CellComplex {
         type Tested = (Vec<(Plane, bool)>, HashMap<[u64; 4], bool, FxBuild>);
         let key = |p: &Plane| [p.n[0].to_bits(), p.n[1].to_bits(), p.n[2].to_bits(), p.d.to_bits()];
         // Polygons attached as tetrahedron faces (`CellComplex::conforming`) are not tested
-        // against implicit tetrahedra: a face of a valid tetrahedralization meets no
-        // tetrahedron's interior (the tetrahedralization's own exact validation keeps that),
-        // and neither was placed by geometry. Whether any polygon is left for those cells:
+        // against implicit tetrahedra (see above). The others, and a grid of theirs for
+        // implicit tetrahedra when some polygons are left out:
         let conforming = |pi: u32| self.conforming.get(pi as usize) == Some(&true);
-        // The others, and a grid of theirs for implicit tetrahedra (when some are left out).
         let placed: Vec<u32> = (0..model.polygons.len() as u32).filter(|&pi| !conforming(pi)).collect();
         let any_placed = !placed.is_empty();
         let placed_grid = (placed.len() < boxes.len()).then(|| {
