@@ -249,58 +249,36 @@ impl CellComplex {
 
     /// Stage 2: polygons whose fan triangles are all tetrahedron faces get occluders on
     /// those faces without any geometry. Returns the polygons left for stage 3.
+    ///
+    /// A fan triangle is found among the tetrahedra around its vertex of fewest (a star
+    /// list built once, in place of a map of all wanted triangles): in a tetrahedralization
+    /// a triangle is the face of at most two tetrahedra, both naming its one patch. Each
+    /// polygon is decided, and its occluders made, on every core; they are added to the
+    /// patches in polygon order, as one thread would.
     fn attach_conforming(&mut self, model: &Model, tet: &Tetrahedralization, on_support: &[bool]) -> Vec<PolygonId> {
-        // Sorted vertex triple of every tetrahedron face -> its patch.
-        // Sized at once (an upper bound: fan triangles may repeat), so that it never holds
-        // its old and new tables together while growing.
-        let nfans: usize = model
-            .polygons
-            .iter()
-            .zip(on_support)
-            .filter(|(_, on)| **on)
-            .map(|(p, _)| if p.verts.len() > 3 { 2 * (p.verts.len() - 2) } else { 1 })
-            .sum();
-        let mut wanted: HashMap<[u32; 3], Option<PatchId>, FxBuild> =
-            HashMap::with_capacity_and_hasher(nfans, FxBuild::default());
+        let (start, star) = tet_stars(tet);
+        let star_of = |v: u32| &star[start[v as usize] as usize..start[v as usize + 1] as usize];
+        // The patch whose face is the triangle `t`, if any.
+        let face_patch = |t: [u32; 3]| -> Option<PatchId> {
+            let v = *t.iter().min_by_key(|&&v| star_of(v).len())?;
+            star_of(v).iter().find_map(|&x| {
+                let vs = tet.tet(TetId(x)).map(|w| w.0);
+                if !t.iter().all(|w| vs.contains(w)) {
+                    return None;
+                }
+                let i = vs.iter().position(|w| !t.contains(w))?;
+                Some(PatchId(self.cells[x as usize].tags()[i]))
+            })
+        };
         let fans = |p: &[VertexId], start: usize| -> Vec<[u32; 3]> {
             let n = p.len();
             (1..n - 1)
                 .map(|k| [p[start].0, p[(start + k) % n].0, p[(start + k + 1) % n].0])
                 .collect()
         };
-        let key = |t: &[u32; 3]| {
-            let mut k = *t;
-            k.sort_unstable();
-            k
-        };
-        for (poly, _) in model.polygons.iter().zip(on_support).filter(|(_, on)| **on) {
-            let starts = if poly.verts.len() > 3 { 2 } else { 1 };
-            for s in 0..starts {
-                for tri in fans(&poly.verts, s) {
-                    wanted.insert(key(&tri), None);
-                }
-            }
-        }
-        // Which patch each wanted triangle is: looked up on every core (the map is only
-        // read), then recorded in patch order (each tetrahedron face is one patch).
-        let hits: Vec<([u32; 3], PatchId)> = (0..self.patches.len())
-            .into_par_iter()
-            .with_min_len(4096)
-            .filter_map(|pi| {
-                let t = self.patches[pi].cells[0];
-                let i = self.cells[t.idx()].tags().iter().position(|&x| x == pi as u32)?;
-                let k = key(&tet.face(TetId(t.0), i).map(|v| v.0));
-                wanted.contains_key(&k).then_some((k, PatchId(pi as u32)))
-            })
-            .collect();
-        for (k, p) in hits {
-            if let Some(slot) = wanted.get_mut(&k) {
-                *slot = Some(p);
-            }
-        }
-        // Which fan (start vertex) of each polygon is all patches, decided on every core
-        // (read only); the occluders are then added in polygon order, as one thread would.
-        let chosen: Vec<Option<u8>> = model
+        // Per polygon: the occluders of its first fan (start vertex) that is all patches,
+        // with their patches; `None` for the polygons left to stage 3.
+        let placed: Vec<Option<Vec<(PatchId, Occluder)>>> = model
             .polygons
             .par_iter()
             .enumerate()
@@ -310,53 +288,67 @@ impl CellComplex {
                     return None;
                 }
                 let starts = if poly.verts.len() > 3 { 2 } else { 1 };
-                (0..starts)
-                    .find(|&s| {
-                        fans(&poly.verts, s).iter().all(|t| match wanted.get(&key(t)) {
-                            // A flat tetrahedron beside the face means other faces lie on the
-                            // polygon too: place it geometrically so all of them get occluders.
-                            Some(Some(p)) => self.patches[p.idx()]
-                                .cells
-                                .iter()
-                                .all(|&c| c == HULL || !self.cells[c.idx()].flat),
-                            _ => false,
+                (0..starts).find_map(|s| {
+                    let tris = fans(&poly.verts, s);
+                    let patches: Vec<PatchId> = tris
+                        .iter()
+                        .map(|&t| {
+                            // A flat tetrahedron beside the face means other faces lie on
+                            // the polygon too: place it geometrically so all of them get
+                            // occluders.
+                            face_patch(t).filter(|p| {
+                                self.patches[p.idx()]
+                                    .cells
+                                    .iter()
+                                    .all(|&c| c == HULL || !self.cells[c.idx()].flat)
+                            })
                         })
-                    })
-                    .map(|s| s as u8)
+                        .collect::<Option<_>>()?;
+                    Some(
+                        tris.iter()
+                            .zip(patches)
+                            .map(|(tri, pid)| {
+                                let patch = &self.patches[pid.idx()];
+                                let pv: Vec<P3Key> = patch.polygon.verts.iter().map(|p| p.map(f64::to_bits)).collect();
+                                let tv: Vec<P3Key> = tri
+                                    .iter()
+                                    .map(|&v| model.vertices[v as usize].map(f64::to_bits))
+                                    .collect();
+                                // Same cyclic order as the patch: the polygon's normal agrees
+                                // with the patch normal, which points into cells[1], so the
+                                // polygon faces cells[1].
+                                let same = (0..3).any(|r| (0..3).all(|j| pv[(r + j) % 3] == tv[j]));
+                                // The triangle *is* the patch; occluders are stored in the
+                                // patch's orientation.
+                                let occ = Occluder {
+                                    polygon: patch.polygon.clone(),
+                                    source: PolygonId(k as u32),
+                                    faces: if same { 1 } else { 0 },
+                                };
+                                (pid, occ)
+                            })
+                            .collect(),
+                    )
+                })
             })
             .collect();
-        self.conforming = chosen.iter().map(Option::is_some).collect();
+        drop((start, star));
+        self.conforming = placed.iter().map(Option::is_some).collect();
         let mut pending = Vec::new();
-        for (k, poly) in model.polygons.iter().enumerate() {
-            let Some(s) = chosen[k] else {
+        for (k, occluders) in placed.into_iter().enumerate() {
+            let Some(occluders) = occluders else {
                 pending.push(PolygonId(k as u32));
                 continue;
             };
-            let tris = fans(&poly.verts, s as usize);
             self.stats.polygons_conforming += 1;
-            for tri in tris {
-                let pid = wanted[&key(&tri)].expect("checked");
+            for (pid, occ) in occluders {
                 let patch = &mut self.patches[pid.idx()];
-                let pv: Vec<P3Key> = patch.polygon.verts.iter().map(|p| p.map(f64::to_bits)).collect();
-                let tv: Vec<P3Key> = tri
-                    .iter()
-                    .map(|&v| model.vertices[v as usize].map(f64::to_bits))
-                    .collect();
-                // Same cyclic order as the patch: the polygon's normal agrees with the patch
-                // normal, which points into cells[1], so the polygon faces cells[1].
-                let same = (0..3).any(|r| (0..3).all(|j| pv[(r + j) % 3] == tv[j]));
-                // The triangle *is* the patch; occluders are stored in the patch's orientation.
-                let polygon = patch.polygon.clone();
                 // Nearly always the patch's only occluder: no growth slack (a first push
                 // reserves four).
                 if patch.occluders.is_empty() {
                     patch.occluders.reserve_exact(1);
                 }
-                patch.occluders.push(Occluder {
-                    polygon,
-                    source: PolygonId(k as u32),
-                    faces: if same { 1 } else { 0 },
-                });
+                patch.occluders.push(occ);
             }
         }
         pending
@@ -1515,6 +1507,30 @@ pub(crate) fn polygon_supports(model: &Model) -> (Vec<Plane>, Vec<(usize, bool)>
     (supports.into_iter().map(|s| s.plane).collect(), of)
 }
 
+/// The finite tetrahedra around each vertex of `tet`, as offsets into one list (vertex
+/// `v`'s are `list[start[v]..start[v + 1]]`, ascending).
+fn tet_stars(tet: &Tetrahedralization) -> (Vec<u32>, Vec<u32>) {
+    let nv = tet.num_vertices();
+    let mut start = vec![0u32; nv + 1];
+    for (_, vs) in tet.tets() {
+        for v in vs {
+            start[v.idx() + 1] += 1;
+        }
+    }
+    for i in 0..nv {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start[..nv].to_vec();
+    let mut list = vec![0u32; start[nv] as usize];
+    for (t, vs) in tet.tets() {
+        for v in vs {
+            list[fill[v.idx()] as usize] = t.0;
+            fill[v.idx()] += 1;
+        }
+    }
+    (start, list)
+}
+
 /// Groups polygons whose vertices all lie within [`crate::Tolerances::coplanar_abs`] of a
 /// larger polygon's plane (either orientation). Returns the supports and, per polygon,
 /// its support and whether it faces against the support's orientation. Hash buckets on
@@ -1559,38 +1575,61 @@ fn support_planes(model: &Model, pending: &[PolygonId], tol: &crate::Tolerances)
             (dc / dstep).round() as i64,
         ]
     };
+    // Each polygon's plane (from its plane triple) and bucket, on every core.
+    let planes: Vec<((usize, usize, usize), Plane, [i64; 4])> = cycles
+        .par_iter()
+        .with_min_len(256)
+        .map(|v| {
+            let (i, j, l) = plane_triple(v);
+            let plane = Plane::from_points(&v[i], &v[j], &v[l]).normalized();
+            // Canonical orientation for bucketing: largest normal component positive.
+            let n = plane.n;
+            let a = (0..3).max_by(|&x, &y| n[x].abs().total_cmp(&n[y].abs())).unwrap_or(2);
+            let s = if n[a] < 0.0 { -1.0 } else { 1.0 };
+            let (cn, cd) = ([n[0] * s, n[1] * s, n[2] * s], plane.d * s);
+            ((i, j, l), plane, key(cn, cd))
+        })
+        .collect();
+    // The supports a polygon of bucket `b` may join, in the order they are tried: the 81
+    // buckets around `b` (offsets -1..=1 in each of the four coordinates, the last
+    // fastest), each bucket's supports in the order they were made.
+    let around = |b: [i64; 4], buckets: &HashMap<[i64; 4], Vec<usize>, FxBuild>| -> Vec<usize> {
+        let mut out = Vec::new();
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    for dd in -1..=1 {
+                        if let Some(v) = buckets.get(&[b[0] + dx, b[1] + dy, b[2] + dz, b[3] + dd]) {
+                            out.extend_from_slice(v);
+                        }
+                    }
+                }
+            }
+        }
+        out
+    };
+    // `around` of each bucket key met so far, dropped when a support is added to one of
+    // its 81 buckets: most polygons share their key with many others.
+    let mut near: HashMap<[i64; 4], Vec<usize>, FxBuild> = HashMap::default();
     // The polygon that founded each support (its own plane: projection moves none of
     // its vertices beyond rounding).
     let mut founder: Vec<usize> = Vec::new();
     for &k in &order {
         let pid = pending[k];
         let v = &cycles[k];
-        let (i, j, l) = plane_triple(v);
-        let plane = Plane::from_points(&v[i], &v[j], &v[l]).normalized();
-        // Canonical orientation for bucketing: largest normal component positive.
+        let ((i, j, l), plane, base) = planes[k];
         let n = plane.n;
-        let a = (0..3).max_by(|&x, &y| n[x].abs().total_cmp(&n[y].abs())).unwrap_or(2);
-        let s = if n[a] < 0.0 { -1.0 } else { 1.0 };
-        let (cn, cd) = ([n[0] * s, n[1] * s, n[2] * s], plane.d * s);
-        let base = key(cn, cd);
-        let mut found = None;
-        'search: for dx in -1..=1 {
-            for dy in -1..=1 {
-                for dz in -1..=1 {
-                    for dd in -1..=1 {
-                        let b = [base[0] + dx, base[1] + dy, base[2] + dz, base[3] + dd];
-                        for &si in buckets.get(&b).map(|v| v.as_slice()).unwrap_or(&[]) {
-                            let sp = &supports[si].plane;
-                            if v.iter().all(|p| sp.eval(p).abs() <= tolc) {
-                                let agree = sp.n[0] * n[0] + sp.n[1] * n[1] + sp.n[2] * n[2] > 0.0;
-                                found = Some((si, !agree));
-                                break 'search;
-                            }
-                        }
-                    }
-                }
-            }
-        }
+        let found = near
+            .entry(base)
+            .or_insert_with(|| around(base, &buckets))
+            .iter()
+            .find_map(|&si| {
+                let sp = &supports[si].plane;
+                v.iter().all(|p| sp.eval(p).abs() <= tolc).then(|| {
+                    let agree = sp.n[0] * n[0] + sp.n[1] * n[1] + sp.n[2] * n[2] > 0.0;
+                    (si, !agree)
+                })
+            });
         of[k] = match found {
             Some(f) => f,
             None => {
@@ -1602,6 +1641,15 @@ fn support_planes(model: &Model, pending: &[PolygonId], tol: &crate::Tolerances)
                     plane,
                 });
                 buckets.entry(base).or_default().push(supports.len() - 1);
+                for dx in -1..=1 {
+                    for dy in -1..=1 {
+                        for dz in -1..=1 {
+                            for dd in -1..=1 {
+                                near.remove(&[base[0] + dx, base[1] + dy, base[2] + dz, base[3] + dd]);
+                            }
+                        }
+                    }
+                }
                 founder.push(k);
                 (supports.len() - 1, false)
             }
@@ -1621,12 +1669,28 @@ fn support_planes(model: &Model, pending: &[PolygonId], tol: &crate::Tolerances)
     // polygon keeps its own plane instead (it then moves no vertex); repeated until no
     // seam opens that way.
     let sliver = tol.sliver_width();
-    let mut by_vertex: HashMap<u32, Vec<usize>, FxBuild> = HashMap::default();
-    for (k, &p) in pending.iter().enumerate() {
-        for v in &model.polygons[p.idx()].verts {
-            by_vertex.entry(v.0).or_default().push(k);
+    // The polygons at each vertex (ascending), as offsets into one list.
+    let (vstart, vpolys) = {
+        let mut start = vec![0u32; model.vertices.len() + 1];
+        for &p in pending {
+            for v in &model.polygons[p.idx()].verts {
+                start[v.idx() + 1] += 1;
+            }
         }
-    }
+        for i in 0..model.vertices.len() {
+            start[i + 1] += start[i];
+        }
+        let mut fill = start.clone();
+        let mut list = vec![0u32; start[model.vertices.len()] as usize];
+        for (k, &p) in pending.iter().enumerate() {
+            for v in &model.polygons[p.idx()].verts {
+                list[fill[v.idx()] as usize] = k as u32;
+                fill[v.idx()] += 1;
+            }
+        }
+        (start, list)
+    };
+    let by_vertex = |v: VertexId| &vpolys[vstart[v.idx()] as usize..vstart[v.idx() + 1] as usize];
     // Distance between the projections of `y` onto two planes.
     let apart = |a: &Plane, b: &Plane, y: &[f64; 3]| {
         let (da, db) = (a.eval(y), b.eval(y));
@@ -1635,37 +1699,40 @@ fn support_planes(model: &Model, pending: &[PolygonId], tol: &crate::Tolerances)
     };
     loop {
         // In the geometric order, so that the new supports' ids do not depend on face order.
-        let mut eject: Vec<usize> = Vec::new();
-        for &k in &order {
-            let s = of[k].0;
-            if founder[s] == k {
-                continue;
-            }
-            let sp = &supports[s].plane;
-            let opens = model.polygons[pending[k].idx()].verts.iter().any(|v| {
-                let x = model.vertices[v.idx()];
-                if sp.eval(&x).abs() <= tol.plane_abs() {
+        // Decided on every core (read only), kept in that order.
+        let eject: Vec<usize> = order
+            .par_iter()
+            .with_min_len(256)
+            .copied()
+            .filter(|&k| {
+                let s = of[k].0;
+                if founder[s] == k {
                     return false;
                 }
-                by_vertex[&v.0].iter().any(|&o| {
-                    let so = of[o].0;
-                    if so == s {
+                let sp = &supports[s].plane;
+                model.polygons[pending[k].idx()].verts.iter().any(|v| {
+                    let x = model.vertices[v.idx()];
+                    if sp.eval(&x).abs() <= tol.plane_abs() {
                         return false;
                     }
-                    let op = &supports[so].plane;
-                    let c = sp.n[0] * op.n[0] + sp.n[1] * op.n[1] + sp.n[2] * op.n[2];
-                    let sin = (1.0 - c * c).max(0.0).sqrt();
-                    apart(sp, op, &x) > sin * sliver
-                        && [k, o]
-                            .iter()
-                            .flat_map(|&q| model.polygons[pending[q].idx()].verts.iter())
-                            .any(|w| apart(sp, op, &model.vertices[w.idx()]) > sliver)
+                    by_vertex(*v).iter().any(|&o| {
+                        let o = o as usize;
+                        let so = of[o].0;
+                        if so == s {
+                            return false;
+                        }
+                        let op = &supports[so].plane;
+                        let c = sp.n[0] * op.n[0] + sp.n[1] * op.n[1] + sp.n[2] * op.n[2];
+                        let sin = (1.0 - c * c).max(0.0).sqrt();
+                        apart(sp, op, &x) > sin * sliver
+                            && [k, o]
+                                .iter()
+                                .flat_map(|&q| model.polygons[pending[q].idx()].verts.iter())
+                                .any(|w| apart(sp, op, &model.vertices[w.idx()]) > sliver)
+                    })
                 })
-            });
-            if opens {
-                eject.push(k);
-            }
-        }
+            })
+            .collect();
         if eject.is_empty() {
             break;
         }
@@ -1909,6 +1976,118 @@ mod tests {
         let open_area: f64 = open.iter().map(|(a, _)| a).sum();
         assert!(open.iter().all(|&(_, sliver)| sliver));
         assert!(!(sa - open_area >= 0.5 * sa && sa - open_area > 0.0), "{sa:e} {open:?}");
+    }
+
+    /// The tetrahedra around each vertex are exactly those that have it, ascending.
+    #[test]
+    fn tet_stars_list_each_tetrahedron_at_its_four_vertices() {
+        let soup = crate::generate::scenes::two_rooms();
+        let m = crate::model::from_soup("t", soup.vertices, soup.polygons).expect("model");
+        let tet = Tetrahedralization::build(&m.vertices).expect("tetrahedralization");
+        let (start, list) = tet_stars(&tet);
+        assert_eq!(start.len(), tet.num_vertices() + 1);
+        assert_eq!(list.len(), 4 * tet.num_tets());
+        for v in 0..tet.num_vertices() {
+            let star = &list[start[v] as usize..start[v + 1] as usize];
+            let want: Vec<u32> = tet
+                .tets()
+                .filter(|(_, vs)| vs.iter().any(|w| w.idx() == v))
+                .map(|(t, _)| t.0)
+                .collect();
+            assert_eq!(star, &want[..], "vertex {v}");
+        }
+    }
+
+    /// Stage 2 attaches a polygon exactly when the reference does: a map from every patch's
+    /// vertex triple to the patch (the map stage 2 used to build), the first fan whose
+    /// triangles are all patches beside no flat tetrahedron. On room grids (tessellated
+    /// walls, T-junctions), the thesis models and the two rooms: the same polygons
+    /// conforming, the same left for stage 3, and each patch's occluders from the same
+    /// polygons in the same order.
+    #[test]
+    fn conforming_polygons_are_those_the_map_of_patch_triangles_finds() {
+        let mut soups = vec![
+            crate::generate::scenes::room_grid(3, 2, 2).0,
+            crate::generate::scenes::room_grid(2, 2, 3).0,
+            crate::generate::scenes::two_rooms(),
+        ];
+        for name in [
+            "four_room_optimized",
+            "four_room_tessellated",
+            "four_room_distorted",
+            "noisy",
+        ] {
+            soups.push(crate::generate::thesis::by_name(name).unwrap().soup);
+        }
+        let mut conforming_seen = 0;
+        for soup in soups {
+            let m = crate::model::from_soup("t", soup.vertices, soup.polygons).expect("model");
+            let tet = Tetrahedralization::build(&m.vertices).expect("tetrahedralization");
+            let mut cx = CellComplex::from_tets(&m, &tet);
+            let all: Vec<PolygonId> = (0..m.polygons.len() as u32).map(PolygonId).collect();
+            let (supports, of) = support_planes(&m, &all, &cx.tol);
+            let on_support: Vec<bool> = m
+                .polygons
+                .iter()
+                .zip(&of)
+                .map(|(p, &(s, _))| {
+                    let [a, b, c] = supports[s].ids.map(|v| tet.point(v));
+                    p.verts.iter().all(|v| orient3d(a, b, c, tet.point(*v)) == 0)
+                })
+                .collect();
+            // The reference.
+            let key = |t: [u32; 3]| {
+                let mut k = t;
+                k.sort_unstable();
+                k
+            };
+            let mut by_key: HashMap<[u32; 3], PatchId> = HashMap::new();
+            for (pi, p) in cx.patches.iter().enumerate() {
+                let t = p.cells[0];
+                let i = cx.cells[t.idx()].tags().iter().position(|&x| x == pi as u32).unwrap();
+                by_key.insert(key(tet.face(TetId(t.0), i).map(|v| v.0)), PatchId(pi as u32));
+            }
+            let mut want_sources: Vec<Vec<PolygonId>> = vec![Vec::new(); cx.patches.len()];
+            let mut want_pending = Vec::new();
+            for (k, poly) in m.polygons.iter().enumerate() {
+                let n = poly.verts.len();
+                let fan = |s: usize| -> Option<Vec<PatchId>> {
+                    (1..n - 1)
+                        .map(|j| {
+                            let t = [
+                                poly.verts[s].0,
+                                poly.verts[(s + j) % n].0,
+                                poly.verts[(s + j + 1) % n].0,
+                            ];
+                            let p = *by_key.get(&key(t))?;
+                            cx.patches[p.idx()]
+                                .cells
+                                .iter()
+                                .all(|&c| c == HULL || !cx.cells[c.idx()].flat)
+                                .then_some(p)
+                        })
+                        .collect()
+                };
+                let starts = if n > 3 { 2 } else { 1 };
+                match (0..starts).find_map(|s| on_support[k].then(|| fan(s)).flatten()) {
+                    Some(ps) => ps
+                        .into_iter()
+                        .for_each(|p| want_sources[p.idx()].push(PolygonId(k as u32))),
+                    None => want_pending.push(PolygonId(k as u32)),
+                }
+            }
+            let pending = cx.attach_conforming(&m, &tet, &on_support);
+            assert_eq!(pending, want_pending);
+            for (k, &c) in cx.conforming.iter().enumerate() {
+                assert_eq!(c, !want_pending.contains(&PolygonId(k as u32)), "polygon {k}");
+            }
+            for (pi, p) in cx.patches.iter().enumerate() {
+                let got: Vec<PolygonId> = p.occluders.iter().map(|o| o.source).collect();
+                assert_eq!(got, want_sources[pi], "patch {pi}");
+            }
+            conforming_seen += cx.conforming.iter().filter(|&&c| c).count();
+        }
+        assert!(conforming_seen > 100, "{conforming_seen} conforming polygons");
     }
 
     /// Uncut tetrahedra stay implicit, and everything read from one has the bits of its
