@@ -253,8 +253,7 @@ impl CellComplex {
     /// A fan triangle is found among the tetrahedra around its vertex of fewest (a star
     /// list built once, in place of a map of all wanted triangles): in a tetrahedralization
     /// a triangle is the face of at most two tetrahedra, both naming its one patch. Each
-    /// polygon is decided, and its occluders made, on every core; they are added to the
-    /// patches in polygon order, as one thread would.
+    /// polygon is decided on every core; the occluders are then added in polygon order.
     fn attach_conforming(&mut self, model: &Model, tet: &Tetrahedralization, on_support: &[bool]) -> Vec<PolygonId> {
         let (start, star) = tet_stars(tet);
         let star_of = |v: u32| &star[start[v as usize] as usize..start[v as usize + 1] as usize];
@@ -276,9 +275,9 @@ impl CellComplex {
                 .map(|k| [p[start].0, p[(start + k) % n].0, p[(start + k + 1) % n].0])
                 .collect()
         };
-        // Per polygon: the occluders of its first fan (start vertex) that is all patches,
-        // with their patches; `None` for the polygons left to stage 3.
-        let placed: Vec<Option<Vec<(PatchId, Occluder)>>> = model
+        // Per polygon: its first fan (start vertex) that is all patches, with the patches;
+        // `None` for the polygons left to stage 3.
+        let chosen: Vec<Option<(u8, Vec<PatchId>)>> = model
             .polygons
             .par_iter()
             .enumerate()
@@ -289,10 +288,9 @@ impl CellComplex {
                 }
                 let starts = if poly.verts.len() > 3 { 2 } else { 1 };
                 (0..starts).find_map(|s| {
-                    let tris = fans(&poly.verts, s);
-                    let patches: Vec<PatchId> = tris
-                        .iter()
-                        .map(|&t| {
+                    fans(&poly.verts, s)
+                        .into_iter()
+                        .map(|t| {
                             // A flat tetrahedron beside the face means other faces lie on
                             // the polygon too: place it geometrically so all of them get
                             // occluders.
@@ -303,52 +301,45 @@ impl CellComplex {
                                     .all(|&c| c == HULL || !self.cells[c.idx()].flat)
                             })
                         })
-                        .collect::<Option<_>>()?;
-                    Some(
-                        tris.iter()
-                            .zip(patches)
-                            .map(|(tri, pid)| {
-                                let patch = &self.patches[pid.idx()];
-                                let pv: Vec<P3Key> = patch.polygon.verts.iter().map(|p| p.map(f64::to_bits)).collect();
-                                let tv: Vec<P3Key> = tri
-                                    .iter()
-                                    .map(|&v| model.vertices[v as usize].map(f64::to_bits))
-                                    .collect();
-                                // Same cyclic order as the patch: the polygon's normal agrees
-                                // with the patch normal, which points into cells[1], so the
-                                // polygon faces cells[1].
-                                let same = (0..3).any(|r| (0..3).all(|j| pv[(r + j) % 3] == tv[j]));
-                                // The triangle *is* the patch; occluders are stored in the
-                                // patch's orientation.
-                                let occ = Occluder {
-                                    polygon: patch.polygon.clone(),
-                                    source: PolygonId(k as u32),
-                                    faces: if same { 1 } else { 0 },
-                                };
-                                (pid, occ)
-                            })
-                            .collect(),
-                    )
+                        .collect::<Option<Vec<PatchId>>>()
+                        .map(|ps| (s as u8, ps))
                 })
             })
             .collect();
         drop((start, star));
-        self.conforming = placed.iter().map(Option::is_some).collect();
+        self.conforming = chosen.iter().map(Option::is_some).collect();
+        // The occluders are made here, in polygon order, on one thread: their blocks then
+        // lie in the heap in the order the field and the checks read them.
         let mut pending = Vec::new();
-        for (k, occluders) in placed.into_iter().enumerate() {
-            let Some(occluders) = occluders else {
+        for (k, c) in chosen.into_iter().enumerate() {
+            let Some((s, patches)) = c else {
                 pending.push(PolygonId(k as u32));
                 continue;
             };
             self.stats.polygons_conforming += 1;
-            for (pid, occ) in occluders {
+            let poly = &model.polygons[k];
+            for (tri, pid) in fans(&poly.verts, s as usize).into_iter().zip(patches) {
                 let patch = &mut self.patches[pid.idx()];
+                let pv: Vec<P3Key> = patch.polygon.verts.iter().map(|p| p.map(f64::to_bits)).collect();
+                let tv: Vec<P3Key> = tri
+                    .iter()
+                    .map(|&v| model.vertices[v as usize].map(f64::to_bits))
+                    .collect();
+                // Same cyclic order as the patch: the polygon's normal agrees with the patch
+                // normal, which points into cells[1], so the polygon faces cells[1].
+                let same = (0..3).any(|r| (0..3).all(|j| pv[(r + j) % 3] == tv[j]));
+                // The triangle *is* the patch; occluders are stored in the patch's orientation.
+                let polygon = patch.polygon.clone();
                 // Nearly always the patch's only occluder: no growth slack (a first push
                 // reserves four).
                 if patch.occluders.is_empty() {
                     patch.occluders.reserve_exact(1);
                 }
-                patch.occluders.push(occ);
+                patch.occluders.push(Occluder {
+                    polygon,
+                    source: PolygonId(k as u32),
+                    faces: if same { 1 } else { 0 },
+                });
             }
         }
         pending

@@ -3,10 +3,8 @@
 //!
 //! The tree is built by the binned surface area heuristic down to `SAH_DEPTH` levels and
 //! by median splits on the longest axis of the triangles' centroid box below, leaves of at
-//! most `LEAF` (4) triangles, and stored for the search as [`Wide`] nodes: each inner node
-//! holds both children's boxes in `f32`, relative to the field's centre and rounded
-//! outward, in one cache line. A query is a best-first descent that skips only
-//! nodes whose (outward) box is at least as far as the nearest triangle found so far, so its answer
+//! most `LEAF` (4) triangles. A query is a best-first descent that skips only
+//! nodes whose box is at least as far as the nearest triangle found so far, so its answer
 //! is the minimum of the point–triangle distances (Ericson 2005, 5.1.5) over *all*
 //! triangles, whatever the tree's shape: the same inputs give the same bits.
 //!
@@ -41,42 +39,25 @@ struct Node {
     count: u32,
 }
 
-/// A subtree of the search: a leaf's triangles `first..first + count` of `tris`
-/// (`count > 0`), or the inner node `wide[first]` (`count == 0`).
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Child {
-    first: u32,
-    count: u32,
-}
-
-/// An inner node of the search tree as the search reads it: both children's boxes in one
-/// 64-byte line (the binary tree's nodes, [`Node`], needed three reads at every step: the
-/// node for its children's indices, then each child's box), in `f32` relative to the
-/// field's `origin` and rounded outward by [`Wide::outward`], so each is a box containing
-/// the child's exact `f64` box.
-#[derive(Clone, Copy, Debug)]
-#[repr(C, align(64))]
-struct Wide {
-    lo: [[f32; 3]; 2],
-    hi: [[f32; 3]; 2],
-    child: [Child; 2],
-}
-
 /// Nearest-polygon distance queries on a model.
 #[derive(Clone, Debug)]
 pub struct ClearanceField {
     tris: Vec<[P3; 3]>,
-    /// Inner nodes, the root (when inner) first, in the binary tree's depth-first order.
-    wide: Vec<Wide>,
-    /// The whole tree (`count == 0` with no `wide`: an empty field).
-    root: Child,
-    /// Subtracted from a query point before its box tests (the boxes are stored relative to
-    /// it, so that `f32` keeps their precision at any offset of the model).
-    origin: P3,
+    nodes: Vec<Node>,
 }
 
 fn add_scaled(a: P3, b: P3, s: f64) -> P3 {
     [a[0] + b[0] * s, a[1] + b[1] * s, a[2] + b[2] * s]
+}
+
+/// Squared distance from `p` to the box `[lo, hi]` (0 inside).
+fn box_dist2(p: P3, lo: P3, hi: P3) -> f64 {
+    let mut d = 0.0;
+    for k in 0..3 {
+        let e = (lo[k] - p[k]).max(0.0).max(p[k] - hi[k]);
+        d += e * e;
+    }
+    d
 }
 
 /// The point of triangle `t` closest to `p` (Ericson, Real-Time Collision Detection, 5.1.5).
@@ -150,13 +131,7 @@ impl ClearanceField {
         } else {
             build_par(&mut tris, PAR_MIN)
         };
-        let (wide, root, origin) = Wide::tree(&nodes);
-        ClearanceField {
-            tris,
-            wide,
-            root,
-            origin,
-        }
+        ClearanceField { tris, nodes }
     }
 
     /// Distance from `p` to the nearest triangle (`+inf` for an empty model).
@@ -221,7 +196,7 @@ impl ClearanceField {
     /// the next hint. The search stops as soon as the best so far is at or below `stop2`
     /// (a negative `stop2` never stops it), returning that triangle's distance.
     fn search(&self, p: P3, bound2: f64, stop2: f64) -> Option<f64> {
-        if self.tris.is_empty() {
+        if self.nodes.is_empty() {
             return None;
         }
         let mut best = f64::INFINITY;
@@ -236,53 +211,51 @@ impl ClearanceField {
         if best <= stop2 {
             return Some(best.sqrt());
         }
-        // Box tests on the point relative to the boxes' origin.
-        let q = sub(&p, &self.origin);
         // Depth-first, the nearer child first: at most one pending sibling per level, and
         // the tree is below `SAH_DEPTH + 32` levels (median splits past `SAH_DEPTH`).
         // The nearer child is visited at once rather than pushed and popped, and a farther
         // child already at least as far as the best so far is not pushed (the pop would
         // skip it: the best only decreases): the nodes visited, and their order, are those
         // of pushing both children and testing each at its pop.
-        // Not initialised (a query is short, the stack's 1 KiB is not): only entries below
-        // `len` are read, each written when pushed.
-        let mut stack = [const { std::mem::MaybeUninit::<(f64, Child)>::uninit() }; 64];
+        let mut stack = [(0.0f64, 0u32); 64];
         let mut len = 0usize;
-        let mut at = self.root;
+        let mut ni = 0u32;
         // The root is at distance 0 (as if popped with 0).
         let mut visit = 0.0 < best.min(bound2);
         loop {
             if visit {
-                if at.count > 0 {
-                    for (i, t) in self.tris[at.first as usize..(at.first + at.count) as usize]
+                let n = self.nodes[ni as usize];
+                if n.count > 0 {
+                    for (i, t) in self.tris[n.first as usize..(n.first + n.count) as usize]
                         .iter()
                         .enumerate()
                     {
                         let d = tri_dist2(p, t);
                         if d < best {
                             best = d;
-                            arg = at.first + i as u32;
+                            arg = n.first + i as u32;
                         }
                     }
                     if best <= stop2 {
                         break;
                     }
                 } else {
-                    let w = &self.wide[at.first as usize];
-                    let [dl, dr] = w.dist2(q);
+                    let (l, r) = (ni + 1, n.first);
+                    let dl = box_dist2(p, self.nodes[l as usize].lo, self.nodes[l as usize].hi);
+                    let dr = box_dist2(p, self.nodes[r as usize].lo, self.nodes[r as usize].hi);
                     // The left child first when strictly nearer, else the right.
                     let ((dn, near), (df, far)) = if dl < dr {
-                        ((dl, w.child[0]), (dr, w.child[1]))
+                        ((dl, l), (dr, r))
                     } else {
-                        ((dr, w.child[1]), (dl, w.child[0]))
+                        ((dr, r), (dl, l))
                     };
                     let lim = best.min(bound2);
                     if !(df >= lim) {
-                        stack[len].write((df, far));
+                        stack[len] = (df, far);
                         len += 1;
                     }
                     if !(dn >= lim) {
-                        at = near;
+                        ni = near;
                         continue;
                     }
                 }
@@ -292,112 +265,12 @@ impl ClearanceField {
                 break;
             }
             len -= 1;
-            // SAFETY: entry `len` was written by the push that counted it.
-            let (d, next) = unsafe { stack[len].assume_init() };
+            let (d, next) = stack[len];
             visit = !(d >= best.min(bound2));
-            at = next;
+            ni = next;
         }
         HINT.with(|h| h.set(arg));
         (best < bound2).then(|| best.sqrt())
-    }
-}
-
-impl Wide {
-    /// The squared distances from `q` (a point relative to the field's origin) to the two
-    /// children's boxes: each at most the distance to the exact box (the boxes are rounded
-    /// outward), so a child is skipped only when all its triangles are at least that far.
-    #[inline(always)]
-    fn dist2(&self, q: P3) -> [f64; 2] {
-        let mut d = [0.0f64; 2];
-        for c in 0..2 {
-            for k in 0..3 {
-                let (lo, hi) = (f64::from(self.lo[c][k]), f64::from(self.hi[c][k]));
-                let e = (lo - q[k]).max(0.0).max(q[k] - hi);
-                d[c] += e * e;
-            }
-        }
-        d
-    }
-
-    /// `[lo, hi]` relative to `origin`, in `f32` and containing the exact box: widened by
-    /// `pad` (which covers the rounding of the subtractions, here and of the query point
-    /// in the search), then rounded down and up.
-    fn outward(lo: P3, hi: P3, origin: P3, pad: f64) -> ([f32; 3], [f32; 3]) {
-        let down = |x: f64| {
-            let y = x as f32;
-            if f64::from(y) > x { y.next_down() } else { y }
-        };
-        let up = |x: f64| {
-            let y = x as f32;
-            if f64::from(y) < x { y.next_up() } else { y }
-        };
-        (
-            [0, 1, 2].map(|k| down(lo[k] - origin[k] - pad)),
-            [0, 1, 2].map(|k| up(hi[k] - origin[k] + pad)),
-        )
-    }
-
-    /// The search's tree from the binary tree `nodes` ([`build_par`]): its inner nodes
-    /// (in the same depth-first order), the root, and the origin (the root box's centre).
-    fn tree(nodes: &[Node]) -> (Vec<Wide>, Child, P3) {
-        let Some(root) = nodes.first() else {
-            return (Vec::new(), Child { first: 0, count: 0 }, [0.0; 3]);
-        };
-        let origin = [0, 1, 2].map(|k| {
-            let c = 0.5 * root.lo[k] + 0.5 * root.hi[k];
-            if c.is_finite() { c } else { 0.0 }
-        });
-        // A margin far above the rounding of `x - origin` (at most half an ulp of the
-        // difference, which is exact near the origin whatever the offset) for a box corner
-        // or a query point within the root box: boxes only grow by it.
-        let size = (0..3).fold(0.0f64, |m, k| {
-            m.max((root.lo[k] - origin[k]).abs())
-                .max((root.hi[k] - origin[k]).abs())
-        });
-        let pad = if size.is_finite() {
-            size * f64::EPSILON * 64.0
-        } else {
-            0.0
-        };
-        // Index of each inner node among the inner nodes (the order is kept).
-        let mut index = vec![u32::MAX; nodes.len()];
-        let mut inner = 0u32;
-        for (i, n) in nodes.iter().enumerate() {
-            if n.count == 0 {
-                index[i] = inner;
-                inner += 1;
-            }
-        }
-        let child = |i: usize| {
-            let n = &nodes[i];
-            if n.count > 0 {
-                Child {
-                    first: n.first,
-                    count: n.count,
-                }
-            } else {
-                Child {
-                    first: index[i],
-                    count: 0,
-                }
-            }
-        };
-        let wide = nodes
-            .iter()
-            .enumerate()
-            .filter(|(_, n)| n.count == 0)
-            .map(|(i, n)| {
-                let (l, r) = (i + 1, n.first as usize);
-                let (llo, lhi) = Wide::outward(nodes[l].lo, nodes[l].hi, origin, pad);
-                let (rlo, rhi) = Wide::outward(nodes[r].lo, nodes[r].hi, origin, pad);
-                Wide {
-                    lo: [llo, rlo],
-                    hi: [lhi, rhi],
-                    child: [child(l), child(r)],
-                }
-            })
-            .collect();
-        (wide, child(0), origin)
     }
 }
 
@@ -740,28 +613,29 @@ mod tests {
     /// The search before the warm start (best so far from infinity, nothing remembered):
     /// the frozen reference that the warm-started search must equal bit for bit.
     fn reference_search(f: &ClearanceField, p: P3, bound2: f64) -> Option<f64> {
-        if f.tris.is_empty() {
+        if f.nodes.is_empty() {
             return None;
         }
-        let q = sub(&p, &f.origin);
         let mut best = f64::INFINITY;
-        let mut stack = vec![(0.0f64, f.root)];
-        while let Some((d, at)) = stack.pop() {
+        let mut stack = vec![(0.0f64, 0u32)];
+        while let Some((d, ni)) = stack.pop() {
             if d >= best.min(bound2) {
                 continue;
             }
-            if at.count > 0 {
-                for t in &f.tris[at.first as usize..(at.first + at.count) as usize] {
+            let n = f.nodes[ni as usize];
+            if n.count > 0 {
+                for t in &f.tris[n.first as usize..(n.first + n.count) as usize] {
                     best = best.min(tri_dist2(p, t));
                 }
                 continue;
             }
-            let w = &f.wide[at.first as usize];
-            let [dl, dr] = w.dist2(q);
+            let (l, r) = (ni + 1, n.first);
+            let dl = box_dist2(p, f.nodes[l as usize].lo, f.nodes[l as usize].hi);
+            let dr = box_dist2(p, f.nodes[r as usize].lo, f.nodes[r as usize].hi);
             if dl < dr {
-                stack.extend([(dr, w.child[1]), (dl, w.child[0])]);
+                stack.extend([(dr, r), (dl, l)]);
             } else {
-                stack.extend([(dl, w.child[0]), (dr, w.child[1])]);
+                stack.extend([(dl, l), (dr, r)]);
             }
         }
         (best < bound2).then(|| best.sqrt())
@@ -907,7 +781,7 @@ mod tests {
         sets.push(same);
         for tris in sets {
             let f = ClearanceField::from_triangles(tris.clone());
-            let depth = tree_depth(&f, f.root);
+            let depth = tree_depth(&f, 0);
             assert!(depth < 60, "depth {depth}");
             let mut p = [0.5, 0.5, 0.4];
             for i in 0..1500 {
@@ -927,74 +801,12 @@ mod tests {
         }
     }
 
-    /// The `f32` boxes keep the search exact and selective wherever the model sits: a
-    /// soup of small triangles offset by up to 1e9 and scaled down to 1e-6 (where `f32`
-    /// alone could not tell its triangles apart) answers as the brute force does, bit for
-    /// bit, and the boxes still prune (a query reads few triangles).
-    #[test]
-    fn boxes_rounded_outward_stay_exact_at_any_offset_and_scale() {
-        let mut rng = Rng::new(41);
-        let mut base = Vec::new();
-        for _ in 0..400 {
-            let a = [rng.f(), rng.f(), rng.f()];
-            let b = add_scaled(a, [rng.f() - 0.5, rng.f() - 0.5, rng.f() - 0.5], 0.05);
-            let c = add_scaled(a, [rng.f() - 0.5, rng.f() - 0.5, rng.f() - 0.5], 0.05);
-            base.push([a, b, c]);
-        }
-        for (offset, scale) in [(0.0, 1.0), (1e9, 1.0), (1e9, 1e-6), (-3e7, 1e3), (1e5, 1e-6)] {
-            let at = |p: P3| p.map(|x| offset + x * scale);
-            let tris: Vec<[P3; 3]> = base.iter().map(|t| t.map(at)).collect();
-            let f = ClearanceField::from_triangles(tris.clone());
-            for w in &f.wide {
-                for c in 0..2 {
-                    assert!((0..3).all(|k| w.lo[c][k] <= w.hi[c][k]), "box {w:?}");
-                }
-            }
-            for i in 0..300 {
-                let p = at([rng.f() * 1.2 - 0.1, rng.f() * 1.2 - 0.1, rng.f() * 1.2 - 0.1]);
-                let want = brute(&tris, p);
-                HINT.with(|h| h.set(u32::MAX));
-                assert_eq!(
-                    f.distance(p).to_bits(),
-                    want.to_bits(),
-                    "offset {offset}, scale {scale}, query {i}"
-                );
-            }
-            // Selective: a cold query from inside the soup reads a small share of the
-            // triangles (the leaves reached from the root by the box tests).
-            let p = at([0.5, 0.5, 0.5]);
-            let q = sub(&p, &f.origin);
-            let (mut leaves, mut stack) = (0usize, vec![f.root]);
-            let lim = {
-                let d = brute(&tris, p);
-                d * d
-            };
-            while let Some(c) = stack.pop() {
-                if c.count > 0 {
-                    leaves += c.count as usize;
-                    continue;
-                }
-                let w = &f.wide[c.first as usize];
-                let d = w.dist2(q);
-                for k in 0..2 {
-                    if d[k] < lim {
-                        stack.push(w.child[k]);
-                    }
-                }
-            }
-            assert!(
-                leaves < tris.len() / 4,
-                "offset {offset}, scale {scale}: {leaves} triangles read"
-            );
-        }
-    }
-
-    fn tree_depth(f: &ClearanceField, at: Child) -> usize {
-        if at.count > 0 {
+    fn tree_depth(f: &ClearanceField, ni: usize) -> usize {
+        let n = f.nodes[ni];
+        if n.count > 0 {
             1
         } else {
-            let w = &f.wide[at.first as usize];
-            1 + tree_depth(f, w.child[0]).max(tree_depth(f, w.child[1]))
+            1 + tree_depth(f, ni + 1).max(tree_depth(f, n.first as usize))
         }
     }
 
