@@ -602,20 +602,28 @@ impl CellComplex {
         // For `faces_reversed`: kept regions that do not leak.
         let mut inside_kept = 0usize;
         for members in &regions {
-            let facing = members.iter().any(|&c| self.faces_occluder(c));
+            // Read only, on every core (the outside's region is most of the cells, and a
+            // region that faces nothing is read to its end).
+            let facing = members.par_iter().with_min_len(4096).any(|&c| self.faces_occluder(c));
             if !facing {
                 self.stats.exterior_regions += 1;
+                // The thin cells removed, found on every core and counted in member order
+                // (the volumes' sum has one order). The tag scan first: most removed cells
+                // (the outside, the insides of walls) face no front, and `is_thin` sums a
+                // volume and an area.
+                let thin: Vec<CellId> = members
+                    .par_iter()
+                    .with_min_len(4096)
+                    .copied()
+                    .filter(|&c| self.faces_any_front(c) && (self.cells[c.idx()].flat || self.is_thin(c)))
+                    .collect();
                 for &c in members {
                     self.cells[c.idx()].exterior = true;
                 }
                 removed += members.len();
-                for &c in members {
-                    // The tag scan first: most removed cells (the outside, the insides of
-                    // walls) face no front, and `is_thin` sums a volume and an area.
-                    if self.faces_any_front(c) && (self.cells[c.idx()].flat || self.is_thin(c)) {
-                        self.stats.thin_removed_cells += 1;
-                        self.stats.thin_removed_volume += self.cells[c.idx()].volume();
-                    }
+                for c in thin {
+                    self.stats.thin_removed_cells += 1;
+                    self.stats.thin_removed_volume += self.cells[c.idx()].volume();
                 }
                 continue;
             }
