@@ -1522,6 +1522,10 @@ fn tet_stars(tet: &Tetrahedralization) -> (Vec<u32>, Vec<u32>) {
     (start, list)
 }
 
+/// A polygon's plane triple (indices into its canonical cycle), its plane and its bucket
+/// key in [`support_planes`].
+type PlaneOf = ((usize, usize, usize), Plane, [i64; 4]);
+
 /// Groups polygons whose vertices all lie within [`crate::Tolerances::coplanar_abs`] of a
 /// larger polygon's plane (either orientation). Returns the supports and, per polygon,
 /// its support and whether it faces against the support's orientation. Hash buckets on
@@ -1567,7 +1571,7 @@ fn support_planes(model: &Model, pending: &[PolygonId], tol: &crate::Tolerances)
         ]
     };
     // Each polygon's plane (from its plane triple) and bucket, on every core.
-    let planes: Vec<((usize, usize, usize), Plane, [i64; 4])> = cycles
+    let planes: Vec<PlaneOf> = cycles
         .par_iter()
         .with_min_len(256)
         .map(|v| {
