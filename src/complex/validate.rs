@@ -1,6 +1,6 @@
 //! Invariant checker for [`CellComplex`]. Tests call it after building.
 
-use super::{CellComplex, HULL, PatchId};
+use super::{CellComplex, HULL, PatchId, Portal};
 use crate::base::hash::FxBuild;
 use crate::geom::{Classification, ConvexPolygon, ConvexPolyhedron, Cut, Plane};
 use crate::ids::CellId;
@@ -135,11 +135,36 @@ impl CellComplex {
     /// Each portal pair is listed once, ordered, and joins two active cells (part of
     /// [`check_valid`](Self::check_valid)).
     pub fn check_portals(&self) -> Result<(), ComplexError> {
-        let mut seen: std::collections::HashSet<(CellId, CellId), crate::base::hash::FxBuild> =
-            std::collections::HashSet::with_capacity_and_hasher(self.portals.len(), Default::default());
+        // Which portals repeat an earlier pair: the portals grouped by their first cell
+        // (a counting sort, in list order within a group), each group's few second cells
+        // compared (a set of all pairs was a third of the check at a million triangles).
+        let n = self.cells.len();
+        let first = |p: &Portal| p.cells[0].idx().min(n);
+        let mut start = vec![0u32; n + 2];
         for p in &self.portals {
+            start[first(p) + 1] += 1;
+        }
+        for i in 0..=n {
+            start[i + 1] += start[i];
+        }
+        let mut fill = start.clone();
+        let mut group = vec![0u32; self.portals.len()];
+        for (k, p) in self.portals.iter().enumerate() {
+            let a = first(p);
+            group[fill[a] as usize] = k as u32;
+            fill[a] += 1;
+        }
+        let mut repeat = vec![false; self.portals.len()];
+        for w in start.windows(2) {
+            let g = &group[w[0] as usize..w[1] as usize];
+            for (j, &k) in g.iter().enumerate() {
+                let b = self.portals[k as usize].cells;
+                repeat[k as usize] = g[..j].iter().any(|&e| self.portals[e as usize].cells == b);
+            }
+        }
+        for (k, p) in self.portals.iter().enumerate() {
             let [a, b] = p.cells;
-            if !seen.insert((a, b)) {
+            if repeat[k] {
                 return Err(ComplexError::Portal {
                     a: a.0,
                     b: b.0,
@@ -250,7 +275,13 @@ impl CellComplex {
                 .with_min_len(256)
                 .filter(|&i| self.cells[i].alive)
                 .map(|i| {
-                    let poly = self.cells[i].poly();
+                    let cell = &self.cells[i];
+                    // An implicit tetrahedron: four triangles, nothing built (its box is
+                    // its polyhedron's, `implicit_tetrahedra_read_as_their_polyhedra_...`).
+                    if cell.tet_shape().is_some() {
+                        return (self.cell_volume(CellId(i as u32)), rounding_of(cell.aabb(), 4));
+                    }
+                    let poly = cell.poly();
                     // Cells with a face of four or more vertices (possibly non-planar)
                     // count the volume their neighbours agree on (`tiling_volume`); a
                     // cell of triangles has one volume whatever the fans.
@@ -865,9 +896,6 @@ fn crack_crossing(
 /// triangle: the bound uses `d²·(d + M)` for `d³` (a small model at 1e5, fuzz find
 /// `delaunay_validate_..._occl-98269067`: cell volumes 3e-9 relative off the hull's).
 fn volume_rounding(p: &ConvexPolyhedron) -> f64 {
-    let (lo, hi) = p.aabb();
-    let d = crate::base::vec::dist(&lo, &hi);
-    let m = (0..3).map(|k| lo[k].abs().max(hi[k].abs())).fold(0.0, f64::max);
     // Fan triangles: one per triangle, one per edge of a larger face (`tiling_volume`).
     let triangles: usize = p
         .faces
@@ -878,6 +906,13 @@ fn volume_rounding(p: &ConvexPolyhedron) -> f64 {
             n => n,
         })
         .sum();
+    rounding_of(p.aabb(), triangles)
+}
+
+/// [`volume_rounding`] of a cell with box `(lo, hi)` and `triangles` fan triangles.
+fn rounding_of((lo, hi): ([f64; 3], [f64; 3]), triangles: usize) -> f64 {
+    let d = crate::base::vec::dist(&lo, &hi);
+    let m = (0..3).map(|k| lo[k].abs().max(hi[k].abs())).fold(0.0, f64::max);
     8.0 * f64::EPSILON * d * d * (d + m) * triangles as f64 / 6.0
 }
 
@@ -942,6 +977,49 @@ mod box_tree_tests {
 mod tests {
     use crate::generate::scenes;
     use crate::model::from_soup;
+
+    /// The portal check finds a repeated pair wherever it is (next to its twin, at the
+    /// end, far apart in a group of many), and a reversed pair, and reports the first
+    /// violation in list order.
+    #[test]
+    fn a_repeated_portal_pair_is_found_anywhere() {
+        let soup = scenes::room_grid(2, 2, 8).0;
+        let m = from_soup("g", soup.vertices, soup.polygons).unwrap();
+        let cx = crate::pipeline::complex_of_unchecked(&m).unwrap();
+        assert!(cx.portals.len() > 100);
+        cx.check_portals().expect("valid");
+        let twice = |e: Result<(), super::ComplexError>| e.unwrap_err().to_string();
+        let mut next = cx.clone();
+        next.portals.insert(8, next.portals[7].clone());
+        assert!(twice(next.check_portals()).contains("pair listed twice"));
+        let mut end = cx.clone();
+        end.portals.push(end.portals[3].clone());
+        assert!(twice(end.check_portals()).contains("pair listed twice"));
+        let mut reversed = cx.clone();
+        reversed.portals[5].cells.reverse();
+        assert!(twice(reversed.check_portals()).contains("unordered pair"));
+        // The first violation in list order: a reversed pair before a repeat, and after.
+        let mut both = cx.clone();
+        both.portals[2].cells.reverse();
+        both.portals.push(both.portals[9].clone());
+        assert!(twice(both.check_portals()).contains("unordered pair"));
+        let mut both = cx.clone();
+        both.portals.insert(1, both.portals[0].clone());
+        both.portals[6].cells.reverse();
+        let e = twice(both.check_portals());
+        assert!(e.contains("pair listed twice"), "{e}");
+        // Every pair of a busy cell, then one of them again last.
+        let busy = (0..cx.cells.len())
+            .max_by_key(|&c| cx.portals.iter().filter(|p| p.cells[0].idx() == c).count())
+            .unwrap();
+        let of_busy: Vec<usize> = (0..cx.portals.len())
+            .filter(|&k| cx.portals[k].cells[0].idx() == busy)
+            .collect();
+        assert!(of_busy.len() >= 3);
+        let mut late = cx.clone();
+        late.portals.push(late.portals[of_busy[of_busy.len() / 2]].clone());
+        assert!(twice(late.check_portals()).contains("pair listed twice"));
+    }
 
     /// Leaving the conforming polygons out for implicit tetrahedra changes no verdict: on
     /// models of many conforming polygons (a tessellated room grid, the thesis models), and
