@@ -170,6 +170,13 @@ impl CellComplex {
         if cell.flat {
             return true;
         }
+        // Most tetrahedra are far thicker than the sliver width: no face needed to say so.
+        if cell
+            .tet_shape()
+            .is_some_and(|t| t.surely_thicker_than(self.tol.sliver_width()))
+        {
+            return false;
+        }
         let faces = cell.faces();
         let Some(big) = faces.iter().max_by(|a, b| a.area().total_cmp(&b.area())) else {
             return false;
