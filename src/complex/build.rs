@@ -257,8 +257,12 @@ impl CellComplex {
     fn attach_conforming(&mut self, model: &Model, tet: &Tetrahedralization, on_support: &[bool]) -> Vec<PolygonId> {
         let (start, star) = tet_stars(tet);
         let star_of = |v: u32| &star[start[v as usize] as usize..start[v as usize + 1] as usize];
-        // The patch whose face is the triangle `t`, if any.
+        // The patch whose face is the triangle `t`, if any (none for a triangle with a
+        // repeated vertex, which no face is).
         let face_patch = |t: [u32; 3]| -> Option<PatchId> {
+            if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+                return None;
+            }
             let v = *t.iter().min_by_key(|&&v| star_of(v).len())?;
             star_of(v).iter().find_map(|&x| {
                 let vs = tet.tet(TetId(x)).map(|w| w.0);
