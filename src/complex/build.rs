@@ -1592,20 +1592,22 @@ fn support_planes(model: &Model, pending: &[PolygonId], tol: &crate::Tolerances)
     // The supports a polygon of bucket `b` may join, in the order they are tried: the 81
     // buckets around `b` (offsets -1..=1 in each of the four coordinates, the last
     // fastest), each bucket's supports in the order they were made.
+    let near_keys = |b: [i64; 4]| {
+        (0..81i64).map(move |o| {
+            [
+                b[0] + o / 27 - 1,
+                b[1] + o / 9 % 3 - 1,
+                b[2] + o / 3 % 3 - 1,
+                b[3] + o % 3 - 1,
+            ]
+        })
+    };
     let around = |b: [i64; 4], buckets: &HashMap<[i64; 4], Vec<usize>, FxBuild>| -> Vec<usize> {
-        let mut out = Vec::new();
-        for dx in -1..=1 {
-            for dy in -1..=1 {
-                for dz in -1..=1 {
-                    for dd in -1..=1 {
-                        if let Some(v) = buckets.get(&[b[0] + dx, b[1] + dy, b[2] + dz, b[3] + dd]) {
-                            out.extend_from_slice(v);
-                        }
-                    }
-                }
-            }
-        }
-        out
+        near_keys(b)
+            .filter_map(|n| buckets.get(&n))
+            .flatten()
+            .copied()
+            .collect()
     };
     // `around` of each bucket key met so far, dropped when a support is added to one of
     // its 81 buckets: most polygons share their key with many others.
@@ -1640,14 +1642,8 @@ fn support_planes(model: &Model, pending: &[PolygonId], tol: &crate::Tolerances)
                     plane,
                 });
                 buckets.entry(base).or_default().push(supports.len() - 1);
-                for dx in -1..=1 {
-                    for dy in -1..=1 {
-                        for dz in -1..=1 {
-                            for dd in -1..=1 {
-                                near.remove(&[base[0] + dx, base[1] + dy, base[2] + dz, base[3] + dd]);
-                            }
-                        }
-                    }
+                for n in near_keys(base) {
+                    near.remove(&n);
                 }
                 founder.push(k);
                 (supports.len() - 1, false)
@@ -1737,9 +1733,7 @@ fn support_planes(model: &Model, pending: &[PolygonId], tol: &crate::Tolerances)
         }
         for k in eject {
             let pid = pending[k];
-            let v = &cycles[k];
-            let (i, j, l) = plane_triple(v);
-            let plane = Plane::from_points(&v[i], &v[j], &v[l]).normalized();
+            let ((i, j, l), plane, _) = planes[k];
             let poly = &model.polygons[pid.idx()];
             let (start, n) = (canonical_start(model, pid), poly.verts.len());
             let id = |x: usize| poly.verts[(start + x) % n];
