@@ -18,7 +18,7 @@ fn read(p: &Path) -> Value {
         .unwrap_or_else(|e| panic!("{}: {e}", p.display()))
 }
 
-const KEYWORDS: [&str; 17] = [
+const KEYWORDS: [&str; 18] = [
     "$schema",
     "$id",
     "title",
@@ -36,6 +36,7 @@ const KEYWORDS: [&str; 17] = [
     "maxItems",
     "minimum",
     "pattern",
+    "oneOf",
 ];
 
 fn type_ok(t: &str, v: &Value) -> bool {
@@ -72,6 +73,22 @@ fn validate(root: &Value, s: &Value, v: &Value, path: &str, errs: &mut Vec<Strin
         if !ok {
             errs.push(format!("{path}: expected type {t}, found {v}"));
             return;
+        }
+    }
+    if let Some(alts) = obj.get("oneOf").and_then(Value::as_array) {
+        let fits = alts
+            .iter()
+            .filter(|a| {
+                let mut e = Vec::new();
+                validate(root, a, v, path, &mut e);
+                e.is_empty()
+            })
+            .count();
+        if fits != 1 {
+            errs.push(format!(
+                "{path}: fits {fits} of the {} oneOf alternatives, not one",
+                alts.len()
+            ));
         }
     }
     if let Some(c) = obj.get("const")
@@ -184,7 +201,18 @@ fn a_fresh_run_with_timings_matches_and_bad_documents_do_not() {
         "a plain run keeps its timings"
     );
     assert_eq!(errors(&rs, &doc), Vec::<String>::new());
-    assert_eq!(errors(&ms, &read(&out.join("manifest.json"))), Vec::<String>::new());
+    let manifest = read(&out.join("manifest.json"));
+    assert_eq!(errors(&ms, &manifest), Vec::<String>::new());
+    // A version-2 entry with a version-1 hash, or a version-1 manifest with version-2
+    // entries, fits no alternative.
+    let mut mixed = manifest.clone();
+    let hash = mixed["files"][0]["xxh3_64"].take();
+    mixed["files"][0].as_object_mut().unwrap().remove("xxh3_64");
+    mixed["files"][0]["fnv1a64"] = hash;
+    assert!(errors(&ms, &mixed).join("\n").contains("$: fits 0 of the 2 oneOf"));
+    let mut v1 = manifest.clone();
+    v1["schema_version"] = Value::from(1);
+    assert!(errors(&ms, &v1).join("\n").contains("$: fits 0 of the 2 oneOf"));
     // The validator is not vacuous.
     let mut bad = doc.clone();
     bad["cells"][0]["volume"] = Value::from("big");

@@ -107,7 +107,7 @@ pub enum OutputError {
         version: u32,
     },
     /// A `manifest.json` of another schema or version.
-    #[error("{} has schema {schema} v{version}, expected {} v{}", path.display(), super::MANIFEST_SCHEMA, super::MANIFEST_VERSION)]
+    #[error("{} has schema {schema} v{version}, expected {} v{} to v{} (written by another portalfind version: run it again with this one)", path.display(), super::MANIFEST_SCHEMA, super::MANIFEST_VERSION_MIN, super::MANIFEST_VERSION)]
     ManifestSchema {
         /// The file.
         path: PathBuf,

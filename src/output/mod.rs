@@ -35,8 +35,9 @@ pub use plot::{ScatterPoint, scatter};
 pub use prt::{MAX_POINTS_ON_WINDING, MAX_PORTALS_ON_LEAF, PrtFile, PrtLimits, PrtPortal, parse_prt, prt_file};
 pub use result_json::strip_timings_json;
 pub use set::{
-    FileEntry, HashingWriter, MANIFEST_FILE, MANIFEST_SCHEMA, MANIFEST_VERSION, Manifest, SetOptions, Written,
-    check_output_dir, check_run, interrupt, read_manifest, remove_run, verify_file, write_run, write_run_with,
+    FileEntry, HashingWriter, MANIFEST_FILE, MANIFEST_SCHEMA, MANIFEST_VERSION, MANIFEST_VERSION_MIN, Manifest,
+    SetOptions, Written, check_output_dir, check_run, interrupt, read_manifest, remove_run, verify_file, write_run,
+    write_run_with,
 };
 pub use svg::cells_svg;
 pub use viewer::{VIEWER_FILE, viewer_html, viewer_json};

@@ -1,5 +1,6 @@
 //! A run's files as one set: staged in a hidden sibling directory, then swapped in, with
-//! `manifest.json` written last naming every file (size and FNV-1a hash).
+//! `manifest.json` written last naming every file (size and XXH3-64 hash; manifests of
+//! version 1 hold FNV-1a hashes, still read).
 //!
 //! - **Staging.** Every exporter writes into `PARENT/.NAME.portalfind-PID-N/`. An error
 //!   there (disk full, a failing exporter) or an interrupt removes the staging directory and
@@ -31,15 +32,18 @@ use std::sync::{Mutex, MutexGuard};
 pub const MANIFEST_FILE: &str = "manifest.json";
 /// Value of [`Manifest::schema`].
 pub const MANIFEST_SCHEMA: &str = "portalfind-manifest";
-/// Value of [`Manifest::schema_version`].
-pub const MANIFEST_VERSION: u32 = 1;
+/// Value of [`Manifest::schema_version`] written: 2 (files hashed with XXH3-64).
+pub const MANIFEST_VERSION: u32 = 2;
+/// The oldest [`Manifest::schema_version`] read: 1 (files hashed with FNV-1a 64, one byte
+/// per step: about 0.6 s of CPU for the 700 MB a million-triangle run writes).
+pub const MANIFEST_VERSION_MIN: u32 = 1;
 
 /// `manifest.json`: the files of one run (schema in `docs/result-schema.md`).
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Manifest {
     /// Always [`MANIFEST_SCHEMA`].
     pub schema: String,
-    /// [`MANIFEST_VERSION`].
+    /// [`MANIFEST_VERSION`] when written; [`MANIFEST_VERSION_MIN`] to it when read.
     pub schema_version: u32,
     /// `portalfind` version that wrote it.
     pub generator: String,
@@ -63,8 +67,70 @@ pub struct FileEntry {
     pub name: String,
     /// Size in bytes.
     pub bytes: u64,
-    /// FNV-1a 64-bit hash of the content, 16 lower-case hex digits.
-    pub fnv1a64: String,
+    /// XXH3 64-bit hash (seed 0) of the content, 16 lower-case hex digits: what `xxhsum
+    /// -H3 FILE` prints. Written by version 2.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub xxh3_64: Option<String>,
+    /// FNV-1a 64-bit hash of the content, 16 lower-case hex digits: version 1 manifests
+    /// (read, never written).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fnv1a64: Option<String>,
+}
+
+/// The hash functions a [`FileEntry`] may hold.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum HashKind {
+    /// XXH3-64, seed 0 (written).
+    Xxh3,
+    /// FNV-1a 64 (version 1 manifests).
+    Fnv1a,
+}
+
+/// A streaming hash of one [`HashKind`].
+enum Digest {
+    Xxh3(Box<xxhash_rust::xxh3::Xxh3Default>),
+    Fnv1a(u64),
+}
+
+impl Digest {
+    fn new(kind: HashKind) -> Self {
+        match kind {
+            HashKind::Xxh3 => Digest::Xxh3(Box::new(xxhash_rust::xxh3::Xxh3Default::new())),
+            HashKind::Fnv1a => Digest::Fnv1a(0xcbf2_9ce4_8422_2325),
+        }
+    }
+
+    fn update(&mut self, bytes: &[u8]) {
+        match self {
+            Digest::Xxh3(h) => h.update(bytes),
+            Digest::Fnv1a(h) => *h = fnv1a64_from(*h, bytes),
+        }
+    }
+
+    /// The entry of `bytes` bytes hashed so, under `name`.
+    fn entry(&self, name: &str, bytes: u64) -> FileEntry {
+        let (xxh3_64, fnv1a64) = match self {
+            Digest::Xxh3(h) => (Some(format!("{:016x}", h.digest())), None),
+            Digest::Fnv1a(h) => (None, Some(format!("{h:016x}"))),
+        };
+        FileEntry {
+            name: name.to_string(),
+            bytes,
+            xxh3_64,
+            fnv1a64,
+        }
+    }
+}
+
+impl FileEntry {
+    /// The hash this entry holds (XXH3 when it holds both).
+    fn kind(&self) -> HashKind {
+        if self.xxh3_64.is_none() && self.fnv1a64.is_some() {
+            HashKind::Fnv1a
+        } else {
+            HashKind::Xxh3
+        }
+    }
 }
 
 /// Options of [`write_run`].
@@ -124,9 +190,8 @@ fn interrupted() -> Result<(), OutputError> {
     }
 }
 
-/// FNV-1a, 64 bits.
-fn fnv1a64(bytes: &[u8]) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+/// FNV-1a, 64 bits, of `bytes` continued from state `h`.
+fn fnv1a64_from(mut h: u64, bytes: &[u8]) -> u64 {
     for &b in bytes {
         h ^= u64::from(b);
         h = h.wrapping_mul(0x0000_0100_0000_01b3);
@@ -134,13 +199,20 @@ fn fnv1a64(bytes: &[u8]) -> u64 {
     h
 }
 
+/// FNV-1a, 64 bits.
+#[cfg(test)]
+fn fnv1a64(bytes: &[u8]) -> u64 {
+    fnv1a64_from(0xcbf2_9ce4_8422_2325, bytes)
+}
+
 /// [`entry_of`] for the file at `path`, streamed in blocks (a run's `result.json` is a
-/// few hundred MB at a million triangles: reading it whole raised the run's peak memory).
-fn entry_of_file(name: &str, path: &Path) -> Result<FileEntry, OutputError> {
+/// few hundred MB at a million triangles: reading it whole raised the run's peak memory),
+/// with the hash of `kind`.
+fn entry_of_file(name: &str, path: &Path, kind: HashKind) -> Result<FileEntry, OutputError> {
     use std::io::Read;
     let mut f = std::fs::File::open(path).map_err(io_read(path))?;
     let mut buf = vec![0u8; 1 << 16];
-    let (mut h, mut n): (u64, u64) = (0xcbf2_9ce4_8422_2325, 0);
+    let (mut h, mut n) = (Digest::new(kind), 0u64);
     loop {
         let k = match f.read(&mut buf) {
             Ok(0) => break,
@@ -148,25 +220,18 @@ fn entry_of_file(name: &str, path: &Path) -> Result<FileEntry, OutputError> {
             Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
             Err(e) => return Err(io_read(path)(e)),
         };
-        for &b in &buf[..k] {
-            h ^= u64::from(b);
-            h = h.wrapping_mul(0x0000_0100_0000_01b3);
-        }
+        h.update(&buf[..k]);
         n += k as u64;
     }
-    Ok(FileEntry {
-        name: name.to_string(),
-        bytes: n,
-        fnv1a64: format!("{h:016x}"),
-    })
+    Ok(h.entry(name, n))
 }
 
-/// A writer that passes bytes on and hashes them on the way (FNV-1a 64, as
+/// A writer that passes bytes on and hashes them on the way (XXH3-64, as
 /// [`entry_of_file`] would read them back): an exporter that writes through it records the
 /// manifest entry itself ([`ExportContext::hashed`]), saving the read-back of a large file.
 pub struct HashingWriter<W> {
     inner: W,
-    hash: u64,
+    hash: Digest,
     bytes: u64,
 }
 
@@ -175,31 +240,21 @@ impl<W: std::io::Write> HashingWriter<W> {
     pub fn new(inner: W) -> Self {
         HashingWriter {
             inner,
-            hash: 0xcbf2_9ce4_8422_2325,
+            hash: Digest::new(HashKind::Xxh3),
             bytes: 0,
         }
     }
 
     /// The manifest entry of what was written, under `name`, and the inner writer.
     pub fn finish(self, name: &str) -> (FileEntry, W) {
-        let e = FileEntry {
-            name: name.to_string(),
-            bytes: self.bytes,
-            fnv1a64: format!("{:016x}", self.hash),
-        };
-        (e, self.inner)
+        (self.hash.entry(name, self.bytes), self.inner)
     }
 }
 
 impl<W: std::io::Write> std::io::Write for HashingWriter<W> {
     fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
         let k = self.inner.write(buf)?;
-        let mut h = self.hash;
-        for &b in &buf[..k] {
-            h ^= u64::from(b);
-            h = h.wrapping_mul(0x0000_0100_0000_01b3);
-        }
-        self.hash = h;
+        self.hash.update(&buf[..k]);
         self.bytes += k as u64;
         Ok(k)
     }
@@ -209,12 +264,11 @@ impl<W: std::io::Write> std::io::Write for HashingWriter<W> {
     }
 }
 
-fn entry_of(name: &str, bytes: &[u8]) -> FileEntry {
-    FileEntry {
-        name: name.to_string(),
-        bytes: bytes.len() as u64,
-        fnv1a64: format!("{:016x}", fnv1a64(bytes)),
-    }
+/// The entry of `bytes` under `name`, with the hash of `kind`.
+fn entry_of(name: &str, bytes: &[u8], kind: HashKind) -> FileEntry {
+    let mut h = Digest::new(kind);
+    h.update(bytes);
+    h.entry(name, bytes.len() as u64)
 }
 
 fn io_read(path: &Path) -> impl FnOnce(std::io::Error) -> OutputError + '_ {
@@ -237,7 +291,7 @@ pub fn read_manifest(dir: &Path) -> Result<Option<Manifest>, OutputError> {
         path: path.clone(),
         source,
     })?;
-    if m.schema != MANIFEST_SCHEMA || m.schema_version != MANIFEST_VERSION {
+    if m.schema != MANIFEST_SCHEMA || !(MANIFEST_VERSION_MIN..=MANIFEST_VERSION).contains(&m.schema_version) {
         return Err(OutputError::ManifestSchema {
             path,
             schema: m.schema,
@@ -257,7 +311,12 @@ pub fn verify_file(dir: &Path, name: &str, bytes: &[u8]) -> Result<(), OutputErr
     if !m.complete {
         return Err(OutputError::IncompleteRun { dir: dir.to_path_buf() });
     }
-    if m.files.iter().find(|e| e.name == name) != Some(&entry_of(name, bytes)) {
+    if !m
+        .files
+        .iter()
+        .find(|e| e.name == name)
+        .is_some_and(|e| *e == entry_of(name, bytes, e.kind()))
+    {
         return Err(OutputError::NotInManifest { path: dir.join(name) });
     }
     Ok(())
@@ -272,7 +331,7 @@ pub fn check_run(dir: &Path) -> Result<Manifest, OutputError> {
     }
     for e in &m.files {
         let p = dir.join(&e.name);
-        if entry_of_file(&e.name, &p)? != *e {
+        if entry_of_file(&e.name, &p, e.kind())? != *e {
             return Err(OutputError::NotInManifest { path: p });
         }
     }
@@ -688,7 +747,7 @@ fn hash_staged(ctx: &ExportContext<'_>, p: &Path) -> Result<(String, FileEntry),
         .map(|(_, e)| e.clone());
     let entry = match recorded {
         Some(e) => e,
-        None => entry_of_file(&name, p)?,
+        None => entry_of_file(&name, p, HashKind::Xxh3)?,
     };
     Ok((name, entry))
 }
@@ -866,11 +925,11 @@ mod tests {
         for len in [0, 1, 65_536, bytes.len()] {
             let p = dir.join("f.bin");
             std::fs::write(&p, &bytes[..len]).unwrap();
-            assert_eq!(
-                entry_of_file("f.bin", &p).unwrap(),
-                entry_of("f.bin", &bytes[..len]),
-                "{len}"
-            );
+            for kind in [HashKind::Xxh3, HashKind::Fnv1a] {
+                let e = entry_of_file("f.bin", &p, kind).unwrap();
+                assert_eq!(e, entry_of("f.bin", &bytes[..len], kind), "{len}");
+                assert_eq!(e.kind(), kind);
+            }
         }
         let _ = std::fs::remove_dir_all(&dir);
     }
@@ -901,8 +960,70 @@ mod tests {
             }
             let (e, inner) = w.finish("f.bin");
             assert_eq!(inner.0, &bytes[..len]);
-            assert_eq!(e, entry_of("f.bin", &bytes[..len]), "{len}");
+            assert_eq!(e, entry_of("f.bin", &bytes[..len], HashKind::Xxh3), "{len}");
         }
+    }
+
+    /// Reference values from the Python `xxhash` package (`xxh3_64_hexdigest`), which
+    /// `xxhsum -H3` prints too.
+    #[test]
+    fn xxh3_entries_match_the_reference_values() {
+        let long: Vec<u8> = (0..1280).map(|i| (i % 256) as u8).collect();
+        for (bytes, hex) in [
+            (&b""[..], "2d06800538d394c2"),
+            (b"a", "e6c632b61e964e1f"),
+            (b"foobar", "d78fda63144c5c84"),
+            (&long, "4844b009e164352e"),
+        ] {
+            let e = entry_of("f", bytes, HashKind::Xxh3);
+            assert_eq!(e.xxh3_64.as_deref(), Some(hex));
+            assert_eq!(e.fnv1a64, None);
+            // Split anywhere, the streamed hash is the same.
+            let mut d = Digest::new(HashKind::Xxh3);
+            for c in bytes.chunks(7) {
+                d.update(c);
+            }
+            assert_eq!(d.entry("f", bytes.len() as u64), e);
+        }
+    }
+
+    /// A version-1 manifest (FNV-1a hashes) is still read and its files verified; a file
+    /// changed since is refused under either version, and an unknown version is refused.
+    #[test]
+    fn version_1_manifests_are_verified_with_their_own_hash() {
+        let dir = std::env::temp_dir().join(format!("portalfind-v1-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("a.txt"), b"foobar").unwrap();
+        let manifest = |version: u32, entry: FileEntry| Manifest {
+            schema: MANIFEST_SCHEMA.into(),
+            schema_version: version,
+            generator: "test".into(),
+            complete: true,
+            files: vec![entry],
+            later: Vec::new(),
+            replacing: Vec::new(),
+        };
+        let v1 = manifest(1, entry_of("a.txt", b"foobar", HashKind::Fnv1a));
+        let text = String::from_utf8(manifest_bytes(&v1).unwrap()).unwrap();
+        assert!(text.contains("\"fnv1a64\": \"85944171f73967e8\""), "{text}");
+        assert!(!text.contains("xxh3_64"), "{text}");
+        std::fs::write(dir.join(MANIFEST_FILE), &text).unwrap();
+        assert_eq!(check_run(&dir).unwrap().files, v1.files);
+        verify_file(&dir, "a.txt", b"foobar").unwrap();
+        assert!(verify_file(&dir, "a.txt", b"foobaz").is_err());
+        let v2 = manifest(2, entry_of("a.txt", b"foobar", HashKind::Xxh3));
+        std::fs::write(dir.join(MANIFEST_FILE), manifest_bytes(&v2).unwrap()).unwrap();
+        assert_eq!(check_run(&dir).unwrap().files, v2.files);
+        std::fs::write(dir.join("a.txt"), b"foobaz").unwrap();
+        assert!(matches!(check_run(&dir), Err(OutputError::NotInManifest { .. })));
+        let v3 = manifest(3, entry_of("a.txt", b"foobaz", HashKind::Xxh3));
+        std::fs::write(dir.join(MANIFEST_FILE), manifest_bytes(&v3).unwrap()).unwrap();
+        assert!(matches!(
+            check_run(&dir),
+            Err(OutputError::ManifestSchema { version: 3, .. })
+        ));
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]
