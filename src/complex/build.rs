@@ -14,6 +14,10 @@ use std::collections::{HashMap, HashSet, VecDeque};
 use std::time::Instant;
 use thin_vec::ThinVec;
 
+/// The first and the largest batch of polygons placed by dry runs on every core
+/// ([`CellComplex::place_pending`]); only speed depends on them.
+const DRY_BATCHES: (usize, usize) = (32, 2048);
+
 impl CellComplex {
     /// Builds the complex of `model` over its tetrahedralization `tet` (which must be of
     /// `model.vertices`, in order): splitting, portal graph and exterior removal.
@@ -47,53 +51,21 @@ impl CellComplex {
         cx.stats.stage("cells from tetrahedra", t0.elapsed().as_secs_f64());
 
         let t1 = Instant::now();
-        // Support planes over all polygons first: a polygon may skip geometry only if it
-        // lies exactly on its support plane, so that one surface never mixes planes.
-        let all: Vec<PolygonId> = (0..model.polygons.len() as u32).map(PolygonId).collect();
-        let (supports, of) = support_planes(model, &all, &cx.tol);
-        cx.stats.support_planes = supports.len();
-        cx.polygon_planes = of
-            .iter()
-            .map(|&(s, flipped)| {
-                if flipped {
-                    supports[s].plane.flipped()
-                } else {
-                    supports[s].plane
-                }
-            })
-            .collect();
-        let on_support: Vec<bool> = model
-            .polygons
-            .par_iter()
-            .with_min_len(256)
-            .zip(&of)
-            .map(|(p, &(s, _))| {
-                let [a, b, c] = supports[s].ids.map(|v| tet.point(v));
-                p.verts.iter().all(|v| orient3d(a, b, c, tet.point(*v)) == 0)
-            })
-            .collect();
-        let pending = cx.attach_conforming(model, tet, &on_support);
+        let (supports, of, pending) = cx.conform(model, tet);
         cx.stats.stage("conforming polygons", t1.elapsed().as_secs_f64());
 
         let t2 = Instant::now();
         let mut placer = Placer::new(tet, cx.cells.len());
-        // Placement order matters (a refused cut, a sealed crack): it is the polygons'
-        // geometric order, not their order in the file.
-        let mut pending = pending;
-        let cycles: Vec<Vec<[f64; 3]>> = (0..model.polygons.len())
-            .into_par_iter()
-            .with_min_len(256)
-            .map(|k| canonical_cycle(model, PolygonId(k as u32)))
-            .collect();
-        // A total order (ties by id), so the parallel sort gives the one order.
-        pending.par_sort_by(|a, b| cmp_cycles(&cycles[a.idx()], &cycles[b.idx()]).then(a.cmp(b)));
-        for (i, &p) in pending.iter().enumerate() {
-            if i % 64 == 0 {
-                progress("splitting", i, pending.len());
-            }
-            let (s, flipped) = of[p.idx()];
-            cx.place_polygon(model, tet, &mut placer, p, &supports[s], flipped);
-        }
+        let pending = placement_order(model, pending);
+        cx.place_pending(
+            model,
+            tet,
+            &mut placer,
+            &pending,
+            (&supports, &of),
+            Some(DRY_BATCHES),
+            progress,
+        );
         cx.stats.polygons_clipped = pending.len();
         cx.stats.stage("splitting", t2.elapsed().as_secs_f64());
 
@@ -115,6 +87,138 @@ impl CellComplex {
         cx.shrink_storage();
         cx.stats.stage("compact storage", t5.elapsed().as_secs_f64());
         (cx, r)
+    }
+
+    /// Stage 2: the support planes of all polygons (also `polygon_planes`), then the
+    /// polygons that conform to cell faces attached as occluders. Returns the supports,
+    /// each polygon's support and flip, and the polygons left to place (in id order).
+    fn conform(
+        &mut self,
+        model: &Model,
+        tet: &Tetrahedralization,
+    ) -> (Vec<Support>, Vec<(usize, bool)>, Vec<PolygonId>) {
+        // Support planes over all polygons first: a polygon may skip geometry only if it
+        // lies exactly on its support plane, so that one surface never mixes planes.
+        let all: Vec<PolygonId> = (0..model.polygons.len() as u32).map(PolygonId).collect();
+        let (supports, of) = support_planes(model, &all, &self.tol);
+        self.stats.support_planes = supports.len();
+        self.polygon_planes = of
+            .iter()
+            .map(|&(s, flipped)| {
+                if flipped {
+                    supports[s].plane.flipped()
+                } else {
+                    supports[s].plane
+                }
+            })
+            .collect();
+        let on_support: Vec<bool> = model
+            .polygons
+            .par_iter()
+            .with_min_len(256)
+            .zip(&of)
+            .map(|(p, &(s, _))| {
+                let [a, b, c] = supports[s].ids.map(|v| tet.point(v));
+                p.verts.iter().all(|v| orient3d(a, b, c, tet.point(*v)) == 0)
+            })
+            .collect();
+        let pending = self.attach_conforming(model, tet, &on_support);
+        (supports, of, pending)
+    }
+
+    /// Stage 3: places the `pending` polygons (not conforming to cell faces), in order,
+    /// each on its support plane (`supports`, with `of` the support and flip of each
+    /// polygon): splits, attachments, deferred crossings. With `batches` = (first,
+    /// largest), by dry runs on every core where they suffice (the same result; see
+    /// below); `None`: one polygon after another by the serial search only.
+    #[allow(clippy::too_many_arguments)]
+    fn place_pending(
+        &mut self,
+        model: &Model,
+        tet: &Tetrahedralization,
+        placer: &mut Placer,
+        pending: &[PolygonId],
+        (supports, of): (&[Support], &[(usize, bool)]),
+        batches: Option<(usize, usize)>,
+        progress: &mut dyn FnMut(&'static str, usize, usize),
+    ) {
+        let Some((first, largest)) = batches else {
+            for (i, &p) in pending.iter().enumerate() {
+                if i % 64 == 0 {
+                    progress("splitting", i, pending.len());
+                }
+                let (s, flipped) = of[p.idx()];
+                self.place_polygon(model, tet, placer, p, &supports[s], flipped);
+            }
+            return;
+        };
+        // Most polygons split nothing (none at all in a million-triangle building): their
+        // placements are found on every core against the complex as it is at the start of
+        // a batch (a dry run, which gives up at the first split to try) and applied in
+        // order. A polygon whose dry run gave up is placed by the serial search; a split
+        // there logs the cells it changes (`touched`), and a later dry run of the batch
+        // that read one of them is not applied: that polygon too is placed by the serial
+        // search. Attachments and deferrals change nothing a dry run reads, so the result
+        // is the serial loop's, for any batch size
+        // (`dry_runs_place_as_the_serial_search_does`).
+        //
+        // Where most polygons split cells (a real level's brushes cut the tetrahedra of
+        // their neighbours), most dry runs give up or are found stale: after a batch that
+        // applied less than three quarters of its dry runs, the next `serial` polygons (four
+        // times the batch, doubled after each such batch in a row) are placed by the serial
+        // search alone, then a small batch probes again.
+        let place = |cx: &mut Self, placer: &mut Placer, p: PolygonId| {
+            let (s, flipped) = of[p.idx()];
+            cx.place_polygon(model, tet, placer, p, &supports[s], flipped);
+        };
+        let mut i = 0;
+        let (mut batch, mut serial) = (first, 4 * first);
+        while i < pending.len() {
+            let (start, end) = (i, (i + batch).min(pending.len()));
+            let dry: Vec<Option<DryPlacement>> = pending[start..end]
+                .par_iter()
+                .with_max_len(1)
+                .map(|&p| {
+                    let (s, flipped) = of[p.idx()];
+                    self.dry_place(model, tet, placer, p, &supports[s], flipped)
+                })
+                .collect();
+            // Cells changed since the batch's dry runs were found.
+            let mut changed: HashSet<u32, FxBuild> = HashSet::default();
+            let mut applied = 0;
+            self.touched = Some(Vec::new());
+            for (d, &p) in dry.into_iter().zip(&pending[start..end]) {
+                if i % 64 == 0 {
+                    progress("splitting", i, pending.len());
+                }
+                i += 1;
+                match d {
+                    Some(d) if changed.is_empty() || !d.read.iter().any(|c| changed.contains(c)) => {
+                        self.apply_dry(placer, p, d);
+                        applied += 1;
+                    }
+                    _ => {
+                        place(self, placer, p);
+                        changed.extend(self.touched.as_mut().into_iter().flat_map(|t| t.drain(..)).map(|c| c.0));
+                    }
+                }
+            }
+            self.touched = None;
+            if applied * 4 >= (end - start) * 3 {
+                batch = (batch * 2).min(largest);
+                serial = 4 * first;
+            } else {
+                for &p in &pending[i..(i + serial).min(pending.len())] {
+                    if i % 64 == 0 {
+                        progress("splitting", i, pending.len());
+                    }
+                    i += 1;
+                    place(self, placer, p);
+                }
+                batch = first;
+                serial = (serial * 2).min(largest);
+            }
+        }
     }
 
     /// Stage 1: one cell per finite tetrahedron, one patch per face.
@@ -242,6 +346,7 @@ impl CellComplex {
             polygon_planes: Vec::new(),
             hull_through: Vec::new(),
             neighbour_log: Vec::new(),
+            touched: None,
             volumes: Vec::new(),
             conforming: Vec::new(),
         }
@@ -360,29 +465,12 @@ impl CellComplex {
         support: &Support,
         flipped: bool,
     ) {
-        let poly = &model.polygons[pid.idx()];
-        // The polygon, projected onto its support plane (a no-op for the representative),
-        // with the plane oriented so that its front is the polygon's front.
-        let plane = if flipped {
-            support.plane.flipped()
-        } else {
-            support.plane
-        };
-        let start = canonical_start(model, pid);
-        // The corners only (`Model::is_corner`): the same region, clipped in O(corners).
-        let verts: Vec<[f64; 3]> = corner_cycle(model, pid).iter().map(|v| support.project(v)).collect();
-        let polygon = ConvexPolygon::new(verts.clone());
+        let (polygon, plane, (lo, hi, slack), seeds) = self.placement_of(model, tet, pl, pid, support, flipped);
         let ids = support.ids;
-        let (lo, hi) = aabb(&verts);
-        // The projection moved the polygon by up to `coplanar` from where it is: cells
-        // within that distance must be visited, so that faces lying where the polygon is
-        // get it attached (`attach_on_faces` accepts faces that near the plane).
-        let slack = self.near_eps() + self.tol.plane_abs() * 4.0;
-
         pl.queue.clear();
         pl.epoch += 1;
         let epoch = pl.epoch;
-        for c in pl.seed_cells(tet, poly.verts[start], &self.cells) {
+        for c in seeds {
             pl.mark(c, epoch);
             pl.queue.push_back(c);
         }
@@ -432,6 +520,39 @@ impl CellComplex {
         self.stats.splits_refused += refused.iter().filter(|r| self.cells[r.0.idx()].alive).count();
     }
 
+    /// What the search of polygon `pid` starts from: the polygon projected onto its support
+    /// plane (a no-op for the representative), the plane oriented so that its front is the
+    /// polygon's front, the polygon's box with the slack cells are visited within, and the
+    /// live cells around its canonical first vertex.
+    #[allow(clippy::type_complexity)]
+    fn placement_of(
+        &self,
+        model: &Model,
+        tet: &Tetrahedralization,
+        pl: &Placer,
+        pid: PolygonId,
+        support: &Support,
+        flipped: bool,
+    ) -> (ConvexPolygon, Plane, ([f64; 3], [f64; 3], f64), Vec<CellId>) {
+        let poly = &model.polygons[pid.idx()];
+        let plane = if flipped {
+            support.plane.flipped()
+        } else {
+            support.plane
+        };
+        let start = canonical_start(model, pid);
+        // The corners only (`Model::is_corner`): the same region, clipped in O(corners).
+        let verts: Vec<[f64; 3]> = corner_cycle(model, pid).iter().map(|v| support.project(v)).collect();
+        let (lo, hi) = aabb(&verts);
+        let polygon = ConvexPolygon::new(verts);
+        // The projection moved the polygon by up to `coplanar` from where it is: cells
+        // within that distance must be visited, so that faces lying where the polygon is
+        // get it attached (`attach_on_faces` accepts faces that near the plane).
+        let slack = self.near_eps() + self.tol.plane_abs() * 4.0;
+        let seeds = pl.seed_cells(tet, poly.verts[start], &self.cells);
+        (polygon, plane, (lo, hi, slack), seeds)
+    }
+
     /// The breadth-first search of [`place_polygon`](Self::place_polygon) from the cells
     /// in `pl.queue`; refused significant splits are appended to `refused`, successful ones
     /// counted in `splits`.
@@ -452,90 +573,170 @@ impl CellComplex {
     ) {
         let (polygon, plane, ids) = (polygon, *plane, *ids);
         while let Some(c) = pl.queue.pop_front() {
-            if !self.cells[c.idx()].alive {
-                continue;
-            }
-            if !self.touches(c, polygon, &plane, lo, hi, slack) {
-                continue;
-            }
-            // Classify: exactly for unsplit tetrahedra, with tolerance otherwise.
-            let class = self.classify(c, tet, &ids, flipped, &plane);
+            let clip = match self.visit(tet, c, pid, polygon, &plane, &ids, flipped, (lo, hi, slack), &[]) {
+                Visit::Skip => continue,
+                Visit::Attach { adds, defer } => {
+                    if let Some(t) = defer {
+                        pl.defer(t, pid);
+                    }
+                    self.attach(adds);
+                    self.queue_neighbours(c, &mut |n| pl.queue_new(n, epoch));
+                    continue;
+                }
+                Visit::Split(clip) => clip,
+            };
             let mut next: Vec<CellId> = Vec::new();
-            match class {
-                Classification::Straddles => {
-                    let clip = clip_to_cell(polygon, &self.cells[c.idx()].poly(), &self.tol);
-                    let significant = clip.as_ref().is_some_and(|q| q.area() >= self.tol.area_abs());
-                    let split = match clip {
-                        Some(clip) if significant => self.split_cell(c, &plane, clip, pid),
-                        _ => None,
-                    };
-                    if split.is_some() {
-                        *splits += 1;
-                    }
-                    match split {
-                        Some((f, b)) => {
-                            // Neighbours cut together with c: their pieces are new cells
-                            // of their tetrahedra, to be visited like any other.
-                            for (o, fo, bo) in std::mem::take(&mut self.neighbour_log) {
-                                pl.on_split(o, fo, bo, &self.cells);
-                                for x in [fo, bo] {
-                                    if pl.mark(x, epoch) {
-                                        pl.queue.push_back(x);
-                                    }
-                                }
+            match self.split_cell(c, &plane, clip, pid) {
+                Some((f, b)) => {
+                    *splits += 1;
+                    // Neighbours cut together with c: their pieces are new cells
+                    // of their tetrahedra, to be visited like any other.
+                    for (o, fo, bo) in std::mem::take(&mut self.neighbour_log) {
+                        pl.on_split(o, fo, bo, &self.cells);
+                        for x in [fo, bo] {
+                            if pl.mark(x, epoch) {
+                                pl.queue.push_back(x);
                             }
-                            // Faces of the pieces other than the section may lie within
-                            // the attach distance of the plane too: a face nearly coplanar
-                            // with it that the plane crossed at a shallow angle (a noisy
-                            // floor's tetrahedron face). The pieces are marked, so they are
-                            // not visited again: attach here, or that face stays open under
-                            // the polygon (a leak through the wall).
-                            self.attach_on_faces(f, polygon, &plane, pid, true);
-                            self.attach_on_faces(b, polygon, &plane, pid, true);
-                            pl.on_split(c, f, b, &self.cells);
-                            next.push(f);
-                            next.push(b);
-                            pl.mark(f, epoch);
-                            pl.mark(b, epoch);
-                        }
-                        None => {
-                            // Remember the crossing: a later split may leave a piece whose
-                            // section this polygon covers (see `seal_cracks`).
-                            pl.defer(self.cells[c.idx()].tet.expect("a tetrahedron's cell"), pid);
-                            // Within tolerance of the cell's boundary: the polygon lies on a
-                            // face (or grazes the cell); attach it there.
-                            let attached = self.attach_on_faces(c, polygon, &plane, pid, true);
-                            // A significant fragment on the front side that found no face.
-                            let unplaced = significant
-                                && !attached
-                                && self.cells[c.idx()].poly().classify(&plane, &self.tol) != Classification::Back;
-                            if unplaced {
-                                self.stats.unplaced_fragments += 1;
-                            }
-                            if significant {
-                                refused.push((c, *splits, unplaced));
-                            }
-                            next.push(c);
                         }
                     }
+                    // Faces of the pieces other than the section may lie within
+                    // the attach distance of the plane too: a face nearly coplanar
+                    // with it that the plane crossed at a shallow angle (a noisy
+                    // floor's tetrahedron face). The pieces are marked, so they are
+                    // not visited again: attach here, or that face stays open under
+                    // the polygon (a leak through the wall).
+                    self.attach_on_faces(f, polygon, &plane, pid, true);
+                    self.attach_on_faces(b, polygon, &plane, pid, true);
+                    pl.on_split(c, f, b, &self.cells);
+                    next.push(f);
+                    next.push(b);
+                    pl.mark(f, epoch);
+                    pl.mark(b, epoch);
                 }
-                Classification::Front | Classification::Coplanar => {
-                    self.attach_on_faces(c, polygon, &plane, pid, true);
-                    next.push(c);
-                }
-                Classification::Back => {
-                    self.attach_on_faces(c, polygon, &plane, pid, true);
+                None => {
+                    // Remember the crossing: a later split may leave a piece whose
+                    // section this polygon covers (see `seal_cracks`).
+                    pl.defer(self.cells[c.idx()].tet.expect("a tetrahedron's cell"), pid);
+                    // Within tolerance of the cell's boundary: the polygon lies on a
+                    // face (or grazes the cell); attach it there.
+                    let attached = self.attach_on_faces(c, polygon, &plane, pid, true);
+                    // A significant fragment on the front side that found no face.
+                    let unplaced =
+                        !attached && self.cells[c.idx()].poly().classify(&plane, &self.tol) != Classification::Back;
+                    if unplaced {
+                        self.stats.unplaced_fragments += 1;
+                    }
+                    refused.push((c, *splits, unplaced));
                     next.push(c);
                 }
             }
             for c in next {
-                for &t in self.cells[c.idx()].tags() {
-                    let n = self.across(PatchId(t), c);
-                    if n != HULL && pl.mark(n, epoch) {
-                        pl.queue.push_back(n);
-                    }
+                self.queue_neighbours(c, &mut |n| pl.queue_new(n, epoch));
+            }
+        }
+    }
+
+    /// What placing polygon `pid` does at cell `c` of its search (see [`Visit`]), read
+    /// without changing the complex: the serial search applies it at once, the dry run
+    /// ([`CellComplex::dry_place`]) records it. `pending` are the occluders the dry run
+    /// has recorded for this polygon so far (each patch takes the polygon once).
+    #[allow(clippy::too_many_arguments)]
+    fn visit(
+        &self,
+        tet: &Tetrahedralization,
+        c: CellId,
+        pid: PolygonId,
+        polygon: &ConvexPolygon,
+        plane: &Plane,
+        ids: &[VertexId; 3],
+        flipped: bool,
+        (lo, hi, slack): ([f64; 3], [f64; 3], f64),
+        pending: &[(usize, Occluder)],
+    ) -> Visit {
+        if !self.cells[c.idx()].alive || !self.touches(c, polygon, plane, lo, hi, slack) {
+            return Visit::Skip;
+        }
+        // Classify: exactly for unsplit tetrahedra, with tolerance otherwise.
+        let mut defer = None;
+        if self.classify(c, tet, ids, flipped, plane) == Classification::Straddles {
+            let clip = clip_to_cell(polygon, &self.cells[c.idx()].poly(), &self.tol);
+            match clip {
+                Some(clip) if clip.area() >= self.tol.area_abs() => return Visit::Split(clip),
+                // An insignificant section splits nothing; the crossing is remembered (a
+                // later split may leave a piece whose section this polygon covers: see
+                // `seal_cracks`), and the polygon attaches to faces within tolerance.
+                _ => defer = Some(self.cells[c.idx()].tet.expect("a tetrahedron's cell")),
+            }
+        }
+        let (_, adds) = self.faces_to_attach(c, polygon, plane, pid, true, pending);
+        Visit::Attach { adds, defer }
+    }
+
+    /// Hands the cells across `c`'s patches (not the hull) to `queue`, in tag order (it
+    /// queues those it has not marked yet).
+    fn queue_neighbours(&self, c: CellId, queue: &mut dyn FnMut(CellId)) {
+        for &t in self.cells[c.idx()].tags() {
+            let n = self.across(PatchId(t), c);
+            if n != HULL {
+                queue(n);
+            }
+        }
+    }
+
+    /// [`place_polygon`](Self::place_polygon)'s effect, found without changing the complex
+    /// (so on every core at once): the occluders it attaches (patch, occluder) and the
+    /// tetrahedra it defers, in the order the serial search makes them; `None` when the
+    /// search meets a significant section, i.e. a split to try, which only the serial
+    /// search can make. Applied with [`CellComplex::apply_dry`] on the complex it was found
+    /// on (or one changed only by attachments and deferrals since: neither is read), it
+    /// leaves the complex and the placer as `place_polygon` would.
+    fn dry_place(
+        &self,
+        model: &Model,
+        tet: &Tetrahedralization,
+        pl: &Placer,
+        pid: PolygonId,
+        support: &Support,
+        flipped: bool,
+    ) -> Option<DryPlacement> {
+        let (polygon, plane, bounds, seeds) = self.placement_of(model, tet, pl, pid, support, flipped);
+        let mut out = DryPlacement::default();
+        let mut queue: VecDeque<CellId> = VecDeque::new();
+        for c in seeds {
+            out.read.insert(c.0);
+            queue.push_back(c);
+        }
+        while let Some(c) = queue.pop_front() {
+            match self.visit(tet, c, pid, &polygon, &plane, &support.ids, flipped, bounds, &out.adds) {
+                Visit::Skip => continue,
+                Visit::Split(_) => return None,
+                Visit::Attach { adds, defer } => {
+                    out.defers.extend(defer);
+                    out.adds.extend(adds);
                 }
             }
+            let read = &mut out.read;
+            self.queue_neighbours(c, &mut |n| {
+                if read.insert(n.0) {
+                    queue.push_back(n);
+                }
+            });
+        }
+        Some(out)
+    }
+
+    /// Applies a [`dry_place`](Self::dry_place) result of polygon `pid`.
+    fn apply_dry(&mut self, pl: &mut Placer, pid: PolygonId, d: DryPlacement) {
+        for t in d.defers {
+            pl.defer(t, pid);
+        }
+        self.attach(d.adds);
+    }
+
+    /// Appends occluders to patches, in order.
+    fn attach(&mut self, adds: Vec<(usize, Occluder)>) {
+        for (t, o) in adds {
+            self.patches[t].occluders.push(o);
         }
     }
 
@@ -820,6 +1021,23 @@ impl CellComplex {
         pid: PolygonId,
         near: bool,
     ) -> bool {
+        let (attached, adds) = self.faces_to_attach(c, polygon, plane, pid, near, &[]);
+        self.attach(adds);
+        attached
+    }
+
+    /// [`attach_on_faces`](Self::attach_on_faces) without changing the complex: whether
+    /// the polygon lies on a face of `c`, and the occluders to append (patch, occluder),
+    /// none on a patch that already has one of `pid`, in the complex or in `pending`.
+    fn faces_to_attach(
+        &self,
+        c: CellId,
+        polygon: &ConvexPolygon,
+        plane: &Plane,
+        pid: PolygonId,
+        near: bool,
+        pending: &[(usize, Occluder)],
+    ) -> (bool, Vec<(usize, Occluder)>) {
         let un = plane.normalized();
         let eps = if near { self.near_eps() } else { self.tol.plane_abs() };
         let mut attached = false;
@@ -853,7 +1071,9 @@ impl CellComplex {
             }
             let t = cell.tags()[fi] as usize;
             // The patch is visited from both of its cells: attach once per polygon.
-            if self.patches[t].occluders.iter().any(|o| o.source == pid) {
+            if self.patches[t].occluders.iter().any(|o| o.source == pid)
+                || pending.iter().any(|(u, o)| *u == t && o.source == pid)
+            {
                 attached = true;
                 continue;
             }
@@ -875,10 +1095,7 @@ impl CellComplex {
             ));
             attached = true;
         }
-        for (t, o) in adds {
-            self.patches[t].occluders.push(o);
-        }
-        attached
+        (attached, adds)
     }
 
     /// Splits cell `c` by `plane`; the clipped polygon becomes an occluder on the new patch
@@ -1263,6 +1480,15 @@ impl CellComplex {
     ) -> (CellId, CellId) {
         let (fid, bid) = (CellId(self.cells.len() as u32), CellId(self.cells.len() as u32 + 1));
         let tet = self.cells[c.idx()].tet;
+        // The cells this split changes: `c`, every cell across its patches (their patches
+        // are reassigned or divided), the neighbours reshaped by the plan (pillows' below).
+        if let Some(log) = self.touched.as_mut() {
+            log.push(c);
+            for &t in self.cells[c.idx()].tags() {
+                log.extend(self.patches[t as usize].cells.iter().filter(|&&x| x != HULL));
+            }
+            log.extend(plan.cells.iter().map(|(o, _)| *o));
+        }
         // The cross-section patch: outward of the back piece, into the front piece.
         self.patches.push(Patch {
             polygon: s.section.clone(),
@@ -1345,6 +1571,11 @@ impl CellComplex {
                 .position(|&x| x == pw.cell)
                 .expect("named");
             let new_cells = self.patches[pw.new as usize].cells;
+            if let Some(log) = self.touched.as_mut() {
+                let old_cells = self.patches[pw.old as usize].cells;
+                log.push(pw.cell);
+                log.extend(old_cells.iter().chain(&new_cells).filter(|&&x| x != HULL));
+            }
             // The new patch's occluders move over, facing the same cell (the piece, or
             // across the pillow the third cell instead of the pillow's).
             let moved: Vec<Occluder> = std::mem::take(&mut self.patches[pw.new as usize].occluders)
@@ -1374,6 +1605,34 @@ impl CellComplex {
 }
 
 type P3Key = [u64; 3];
+
+/// What placing a polygon does at one cell of its search ([`CellComplex::visit`]).
+enum Visit {
+    /// The cell is dead, or the polygon cannot touch it: nothing, and its neighbours are
+    /// not queued from it.
+    Skip,
+    /// The polygon attaches `adds` (patch, occluder) to the cell's faces, and with `defer`
+    /// straddles the cell's tetrahedron without a significant section (remembered for
+    /// `seal_cracks`); the neighbours are queued.
+    Attach {
+        adds: Vec<(usize, Occluder)>,
+        defer: Option<TetId>,
+    },
+    /// The polygon crosses the cell with this significant section: a split to try.
+    Split(ConvexPolygon),
+}
+
+/// A polygon's placement found without changing the complex ([`CellComplex::dry_place`]).
+#[derive(Default)]
+struct DryPlacement {
+    /// Occluders to append, in order.
+    adds: Vec<(usize, Occluder)>,
+    /// Tetrahedra the polygon straddles without a significant section, in order.
+    defers: Vec<TetId>,
+    /// Every cell the search read (those it queued): the placement still holds after a
+    /// split that changed none of them.
+    read: HashSet<u32, FxBuild>,
+}
 
 /// A neighbour's planned polyhedron after its faces were divided by a split, and the
 /// pillows cancelled in it.
@@ -1749,6 +2008,20 @@ fn support_planes(model: &Model, pending: &[PolygonId], tol: &crate::Tolerances)
 }
 
 /// Lexicographic order of points (coordinates compared by `total_cmp`).
+/// The order polygons are placed in: placement order matters (a refused cut, a sealed
+/// crack), so it is the polygons' geometric order, not their order in the file.
+fn placement_order(model: &Model, pending: Vec<PolygonId>) -> Vec<PolygonId> {
+    // The cycles of the pending polygons only (a few percent of a large model's).
+    let mut keyed: Vec<(Vec<[f64; 3]>, PolygonId)> = pending
+        .into_par_iter()
+        .with_min_len(256)
+        .map(|p| (canonical_cycle(model, p), p))
+        .collect();
+    // A total order (ties by id), so the parallel sort gives the one order.
+    keyed.par_sort_by(|a, b| cmp_cycles(&a.0, &b.0).then(a.1.cmp(&b.1)));
+    keyed.into_iter().map(|(_, p)| p).collect()
+}
+
 fn cmp_points(a: &[f64; 3], b: &[f64; 3]) -> std::cmp::Ordering {
     a[0].total_cmp(&b[0])
         .then(a[1].total_cmp(&b[1]))
@@ -1899,6 +2172,13 @@ impl Placer {
         }
     }
 
+    /// Queues `c` unless marked for this epoch (then marks it).
+    fn queue_new(&mut self, c: CellId, epoch: u32) {
+        if self.mark(c, epoch) {
+            self.queue.push_back(c);
+        }
+    }
+
     fn on_split(&mut self, c: CellId, f: CellId, b: CellId, cells: &[Cell]) {
         let t = cells[c.idx()].tet.expect("a tetrahedron's cell");
         let list = self.descendants.entry(t).or_insert_with(|| vec![CellId(t.0)]);
@@ -1997,6 +2277,68 @@ mod tests {
     /// walls, T-junctions), the thesis models and the two rooms: the same polygons
     /// conforming, the same left for stage 3, and each patch's occluders from the same
     /// polygons in the same order.
+    /// The splitting stage by dry runs on every core, in batches of any size, leaves the
+    /// complex (cells, patches with their occluders, counters) and the deferred crossings
+    /// exactly as the serial search polygon after polygon does, on models where some
+    /// polygons split cells (a dry run gives up) and others do not (it is applied): a
+    /// stale dry run applied after a split would differ.
+    #[test]
+    fn dry_runs_place_as_the_serial_search_does() {
+        let root = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+        let mut models: Vec<Model> = Vec::new();
+        let (grid, _) = crate::generate::scenes::room_grid(3, 2, 3);
+        models.push(crate::model::from_soup("grid", grid.vertices.clone(), grid.polygons.clone()).unwrap());
+        // The grid turned 7, 8 and 9 degrees: its walls no longer lie on tetrahedron faces.
+        let turned: Vec<[f64; 3]> = grid
+            .vertices
+            .iter()
+            .map(|&v| crate::base::rigid::rotate_789(v))
+            .collect();
+        models.push(crate::model::from_soup("turned", turned, grid.polygons).unwrap());
+        for name in ["noisy", "four_room_distorted", "caverns_rotated"] {
+            let path = root.join(format!("models/thesis/{name}.obj"));
+            models.push(crate::model::load_model(&path).unwrap());
+        }
+        let (mut gave_up, mut applied, mut splits) = (0, 0, 0);
+        for m in &models {
+            let tet = Tetrahedralization::build(&m.vertices).expect("tetrahedralization");
+            let mut start = CellComplex::from_tets(m, &tet);
+            let (supports, of, pending) = start.conform(m, &tet);
+            let pending = placement_order(m, pending);
+            let placer = Placer::new(&tet, start.cells.len());
+            for &p in &pending {
+                let (s, flipped) = of[p.idx()];
+                match start.dry_place(m, &tet, &placer, p, &supports[s], flipped) {
+                    Some(_) => applied += 1,
+                    None => gave_up += 1,
+                }
+            }
+            let place = |batches: Option<(usize, usize)>| {
+                let mut cx = start.clone();
+                let mut pl = Placer::new(&tet, cx.cells.len());
+                cx.place_pending(m, &tet, &mut pl, &pending, (&supports, &of), batches, &mut |_, _, _| {});
+                let mut deferred: Vec<_> = pl.deferred.into_iter().collect();
+                deferred.sort();
+                let mut stats = cx.stats.clone();
+                stats.timings.clear();
+                (
+                    format!("{:?}\n{:?}\n{:?}\n{:?}", cx.cells, cx.patches, stats, deferred),
+                    cx.stats.cells_split,
+                )
+            };
+            let (serial, split) = place(None);
+            splits += split;
+            for batches in [(1, 1), (2, 8), (5, 5), DRY_BATCHES] {
+                assert!(
+                    place(Some(batches)) == (serial.clone(), split),
+                    "{}: batches {batches:?}",
+                    m.name
+                );
+            }
+        }
+        assert!(gave_up > 0 && applied > 0 && splits > 0, "{gave_up} {applied} {splits}");
+    }
+
     #[test]
     fn conforming_polygons_are_those_the_map_of_patch_triangles_finds() {
         let mut soups = vec![

@@ -726,6 +726,10 @@ pub struct CellComplex {
     /// piece, back piece), appended by each committed split and drained by the caller
     /// (the Delaunay placer and the BSP tree track live cells).
     pub(crate) neighbour_log: Vec<(CellId, CellId, CellId)>,
+    /// While `Some` (the splitting stage's dry runs): every cell a split may have changed
+    /// (killed, reshaped, or whose patches now lead elsewhere), appended by each split,
+    /// undone ones too; drained by the caller.
+    pub(crate) touched: Option<Vec<CellId>>,
     /// Each cell's volume, once the cells are final ([`CellComplex::cache_volumes`]; NaN
     /// for a dead cell; empty: not cached). A split clears it.
     volumes: Vec<f64>,
@@ -762,6 +766,7 @@ impl CellComplex {
             polygon_planes,
             hull_through: Vec::new(),
             neighbour_log: Vec::new(),
+            touched: None,
             volumes: Vec::new(),
             conforming: Vec::new(),
         }
