@@ -2324,18 +2324,12 @@ fn merge<I: Ids>(
     }
     // The complex portals of each cell and the component of each cell (union-find), for
     // the gate's refined saddles.
-    let mut own_portals = CellPortals {
-        start: vec![0],
-        portals: Vec::new(),
-    };
+    // (Those are listed beside the first weighing, below.)
+    let own_needed = gate.is_some() && scope.cell_portals.is_none();
     let mut owner: Vec<u32> = Vec::new();
     if gate.is_some() {
         owner = (0..n as u32).collect();
-        if scope.cell_portals.is_none() {
-            own_portals = CellPortals::new(cx, |k| live(&comps, k).is_some());
-        }
     }
-    let cell_portals = scope.cell_portals.unwrap_or(&own_portals);
     // A popped entry's key under the complex's ids (for `events`).
     let global_key = |e: Entry| {
         Key::of(Entry {
@@ -2346,7 +2340,6 @@ fn merge<I: Ids>(
     };
     stats.initial_cells = cells;
     stats.initial_pairs = comps.iter().map(|c| c.links.len()).sum::<usize>() / 2;
-    stats.regions = regions(&comps);
     let weigh = |x: &Comp, y: &Comp, l: &Link| {
         sanitize(h.weight(&PairContext {
             portal_area: l.area,
@@ -2416,7 +2409,24 @@ fn merge<I: Ids>(
         heap.extend_bulk(bulk);
     };
     let mut heap = RunHeap::with_capacity(stats.initial_pairs);
-    push_all(&comps, &mut store, &mut heap, &mut stats);
+    // The regions (a serial flood over the links) and the cells' portals beside the first
+    // weighing, which reads the same components.
+    let ((r, own_portals), ()) = rayon::join(
+        || {
+            let own = if own_needed {
+                CellPortals::new(cx, |k| live(&comps, k).is_some())
+            } else {
+                CellPortals {
+                    start: vec![0],
+                    portals: Vec::new(),
+                }
+            };
+            (regions(&comps), own)
+        },
+        || push_all(&comps, &mut store, &mut heap, &mut stats),
+    );
+    stats.regions = r;
+    let cell_portals = scope.cell_portals.unwrap_or(&own_portals);
     stats.init_seconds = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     // At most one collapse per cell but the last (exact capacity: a grown vector holds up
