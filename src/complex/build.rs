@@ -688,8 +688,9 @@ impl CellComplex {
     /// tetrahedra it defers, in the order the serial search makes them; `None` when the
     /// search meets a significant section, i.e. a split to try, which only the serial
     /// search can make. Applied with [`CellComplex::apply_dry`] on the complex it was found
-    /// on (or one changed only by attachments and deferrals since: neither is read), it
-    /// leaves the complex and the placer as `place_polygon` would.
+    /// on, or on one changed since only by attachments and deferrals (neither is read) and
+    /// by splits that touched none of the cells in [`DryPlacement::read`], it leaves the
+    /// complex and the placer as `place_polygon` would.
     fn dry_place(
         &self,
         model: &Model,

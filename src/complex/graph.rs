@@ -302,19 +302,22 @@ impl CellComplex {
                 .map(|pi| {
                     between(pi).map(|(a, b)| {
                         let (pieces, sliver_pieces, s, sa) = self.open_and_sliver_pieces(PatchId(pi as u32));
-                        (oriented(a, b, pieces), sliver_pieces, s, sa)
+                        // Whether a side is a membrane, read here too (random reads, which
+                        // the sequential loop below then spares).
+                        let flat = membrane[a.idx()] || membrane[b.idx()];
+                        ((a, b, flat), oriented(a, b, pieces), sliver_pieces, s, sa)
                     })
                 })
                 .collect();
-            for (pi, o) in block.zip(open) {
-                let (Some((a, b)), Some(((key, pieces), sliver_pieces, s, sa))) = (between(pi), o) else {
+            for o in open {
+                let Some(((a, b, flat), (key, pieces), sliver_pieces, s, sa)) = o else {
                     continue;
                 };
                 slivers += s;
                 sliver_area += sa;
                 // A membrane (flat or thinner than the sliver width) is not a room: see
                 // `through_flat`.
-                if membrane[a.idx()] || membrane[b.idx()] {
+                if flat {
                     continue;
                 }
                 dropped.extend(sliver_pieces.into_iter().map(|q| (a, b, q)));
