@@ -142,13 +142,16 @@ impl CellComplex {
         batches: Option<(usize, usize)>,
         progress: &mut dyn FnMut(&'static str, usize, usize),
     ) {
+        let place = |cx: &mut Self, placer: &mut Placer, p: PolygonId| {
+            let (s, flipped) = of[p.idx()];
+            cx.place_polygon(model, tet, placer, p, &supports[s], flipped);
+        };
         let Some((first, largest)) = batches else {
             for (i, &p) in pending.iter().enumerate() {
                 if i % 64 == 0 {
                     progress("splitting", i, pending.len());
                 }
-                let (s, flipped) = of[p.idx()];
-                self.place_polygon(model, tet, placer, p, &supports[s], flipped);
+                place(self, placer, p);
             }
             return;
         };
@@ -167,10 +170,6 @@ impl CellComplex {
         // applied less than three quarters of its dry runs, the next `serial` polygons (four
         // times the batch, doubled after each such batch in a row) are placed by the serial
         // search alone, then a small batch probes again.
-        let place = |cx: &mut Self, placer: &mut Placer, p: PolygonId| {
-            let (s, flipped) = of[p.idx()];
-            cx.place_polygon(model, tet, placer, p, &supports[s], flipped);
-        };
         let mut i = 0;
         let (mut batch, mut serial) = (first, 4 * first);
         while i < pending.len() {
@@ -2008,7 +2007,6 @@ fn support_planes(model: &Model, pending: &[PolygonId], tol: &crate::Tolerances)
     (supports, of)
 }
 
-/// Lexicographic order of points (coordinates compared by `total_cmp`).
 /// The order polygons are placed in: placement order matters (a refused cut, a sealed
 /// crack), so it is the polygons' geometric order, not their order in the file.
 fn placement_order(model: &Model, pending: Vec<PolygonId>) -> Vec<PolygonId> {
@@ -2023,6 +2021,7 @@ fn placement_order(model: &Model, pending: Vec<PolygonId>) -> Vec<PolygonId> {
     keyed.into_iter().map(|(_, p)| p).collect()
 }
 
+/// Lexicographic order of points (coordinates compared by `total_cmp`).
 fn cmp_points(a: &[f64; 3], b: &[f64; 3]) -> std::cmp::Ordering {
     a[0].total_cmp(&b[0])
         .then(a[1].total_cmp(&b[1]))
@@ -2272,12 +2271,6 @@ mod tests {
         }
     }
 
-    /// Stage 2 attaches a polygon exactly when the reference does: a map from every patch's
-    /// vertex triple to the patch (the map stage 2 used to build), the first fan whose
-    /// triangles are all patches beside no flat tetrahedron. On room grids (tessellated
-    /// walls, T-junctions), the thesis models and the two rooms: the same polygons
-    /// conforming, the same left for stage 3, and each patch's occluders from the same
-    /// polygons in the same order.
     /// The splitting stage by dry runs on every core, in batches of any size, leaves the
     /// complex (cells, patches with their occluders, counters) and the deferred crossings
     /// exactly as the serial search polygon after polygon does, on models where some
@@ -2340,6 +2333,12 @@ mod tests {
         assert!(gave_up > 0 && applied > 0 && splits > 0, "{gave_up} {applied} {splits}");
     }
 
+    /// Stage 2 attaches a polygon exactly when the reference does: a map from every patch's
+    /// vertex triple to the patch (the map stage 2 used to build), the first fan whose
+    /// triangles are all patches beside no flat tetrahedron. On room grids (tessellated
+    /// walls, T-junctions), the thesis models and the two rooms: the same polygons
+    /// conforming, the same left for stage 3, and each patch's occluders from the same
+    /// polygons in the same order.
     #[test]
     fn conforming_polygons_are_those_the_map_of_patch_triangles_finds() {
         let mut soups = vec![
