@@ -108,6 +108,7 @@ use super::hull3::Hull3;
 use super::project::{Frame, P2, hull2, hull2_into, polygon_area, union_area};
 use super::{Decimation, DecimationStats, Settings, Step, StopReason, StopRule};
 use crate::base::hash::FxBuild;
+use crate::base::mem::{prefetch, prefetch_all};
 use crate::base::vec::{lerp, norm, normalize};
 use crate::complex::{Cell, CellComplex};
 use crate::geom::ClearanceField;
@@ -1036,7 +1037,20 @@ fn merge_links(comps: &mut [Comp], store: &mut LinkStore, ca: &mut Comp, cb: &Co
     if let Some(s) = ca.links.remove(b) {
         store.release(s);
     }
-    for &(k, sk) in &cb.links.0 {
+    // The neighbours are random ids: their components, links and link lists are asked
+    // for first (hints only; nothing below depends on them), so that their cache misses
+    // overlap instead of coming one after another.
+    let ks = &cb.links.0;
+    for &(k, sk) in ks {
+        prefetch_all(&comps[k as usize].links);
+        prefetch_all(&store.links[sk as usize]);
+    }
+    for &(k, _) in ks {
+        if let Some(first) = comps[k as usize].links.0.first() {
+            prefetch(first);
+        }
+    }
+    for &(k, sk) in ks {
         if k == a {
             continue;
         }
@@ -2357,8 +2371,8 @@ fn merge<I: Ids>(
     let dedup = trace.is_none();
     // Marks pair `a < b` queued with key (`w`, `saddle`) and gives the entry to push, or
     // `None` when the same key is still queued (see above).
-    let mark = |comps: &[Comp], store: &mut LinkStore, a: u32, b: u32, w: f64, saddle: f64| -> Option<Entry> {
-        let la = store.at(comps[a as usize].links.slot(b).expect("a linked neighbour"));
+    let mark = |store: &mut LinkStore, slot: u32, a: u32, b: u32, w: f64, saddle: f64| -> Option<Entry> {
+        let la = store.at(slot);
         if dedup && la.queued.to_bits() == w.to_bits() {
             return None;
         }
@@ -2370,12 +2384,11 @@ fn merge<I: Ids>(
             b,
         })
     };
-    let requeue =
-        |comps: &[Comp], store: &mut LinkStore, heap: &mut RunHeap<Key>, a: u32, b: u32, w: f64, saddle: f64| {
-            if let Some(e) = mark(comps, store, a, b, w, saddle) {
-                heap.push(Key::of(e));
-            }
-        };
+    let requeue = |store: &mut LinkStore, heap: &mut RunHeap<Key>, slot: u32, a: u32, b: u32, w: f64, saddle: f64| {
+        if let Some(e) = mark(store, slot, a, b, w, saddle) {
+            heap.push(Key::of(e));
+        }
+    };
     // Every live pair: at the start, and again after a constrained stretch (whose pairs
     // across groups were dropped from the heap). Only live components have links. The
     // entries are added at once, sorted into the queue's run ([`RunHeap`]): its layout
@@ -2392,7 +2405,7 @@ fn merge<I: Ids>(
                     let l = store.links[slot as usize];
                     stats.weights_computed += 1;
                     let w = weigh(&comps[a], &comps[b as usize], &l);
-                    if let Some(e) = mark(comps, store, a as u32, b, w, l.saddle) {
+                    if let Some(e) = mark(store, slot, a as u32, b, w, l.saddle) {
                         bulk.push(Key::of(e));
                     }
                 }
@@ -2608,7 +2621,7 @@ fn merge<I: Ids>(
             *store.at(slot) = l2;
             stats.weights_computed += 1;
             let w2 = weigh(&comps[a], &comps[b], &l2);
-            requeue(&comps, &mut store, &mut heap, e.a, e.b, w2, l2.saddle);
+            requeue(&mut store, &mut heap, slot, e.a, e.b, w2, l2.saddle);
             if let Some(ev) = events.as_deref_mut() {
                 ev.push(Event {
                     key: global_key(e),
@@ -2773,21 +2786,27 @@ fn merge<I: Ids>(
         comps[a] = ca;
         if all {
             // Every link of the survivor, in its order (no sorted key list).
+            // (The neighbours' components and the links first, as hints: random ids.)
+            for &(k, slot) in &comps[a].links.0 {
+                prefetch_all(&comps[k as usize]);
+                prefetch_all(&store.links[slot as usize]);
+            }
             for i in 0..comps[a].links.len() {
                 let (k, slot) = comps[a].links.0[i];
                 let lk = store.links[slot as usize];
                 let (x, y) = if (a as u32) < k { (a as u32, k) } else { (k, a as u32) };
                 stats.weights_computed += 1;
                 let w = weigh(&comps[x as usize], &comps[y as usize], &lk);
-                requeue(&comps, &mut store, &mut heap, x, y, w, lk.saddle);
+                requeue(&mut store, &mut heap, slot, x, y, w, lk.saddle);
             }
         } else {
             for &k in cb.links.keys().filter(|&&k| k as usize != a) {
-                let lk = store.links[comps[a].links.slot(k).expect("a linked neighbour") as usize];
+                let slot = comps[a].links.slot(k).expect("a linked neighbour");
+                let lk = store.links[slot as usize];
                 let (x, y) = if (a as u32) < k { (a as u32, k) } else { (k, a as u32) };
                 stats.weights_computed += 1;
                 let w = weigh(&comps[x as usize], &comps[y as usize], &lk);
-                requeue(&comps, &mut store, &mut heap, x, y, w, lk.saddle);
+                requeue(&mut store, &mut heap, slot, x, y, w, lk.saddle);
             }
         }
     };

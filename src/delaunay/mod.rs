@@ -28,6 +28,7 @@ mod validate;
 pub use validate::{ValidationError, ValidationReport};
 
 use crate::base::hash::FxBuild;
+use crate::base::mem::prefetch;
 use crate::base::rng::SplitMix64;
 use crate::base::vec::sub;
 use crate::ids::{TetId, VertexId};
@@ -451,19 +452,6 @@ impl Tetrahedralization {
             + self.rank.capacity() * 4
             + self.slots.capacity() * 32
     }
-}
-
-/// A hint to load `x`'s cache line (no-op where the target has no prefetch instruction).
-#[inline(always)]
-fn prefetch<T>(x: &T) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: a prefetch never faults and has no architectural effect; the pointer comes
-    // from a reference, so it is valid anyway.
-    unsafe {
-        std::arch::x86_64::_mm_prefetch(x as *const T as *const i8, std::arch::x86_64::_MM_HINT_T0);
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = x;
 }
 
 impl<'a> Builder<'a> {
