@@ -1029,6 +1029,30 @@ impl LinkStore {
     }
 }
 
+/// How many neighbours ahead the merge's loops over a component's links ask for the
+/// cache lines they will read (a few misses in flight at once; a whole list of a large
+/// component's thousands of links would evict its own first lines).
+const AHEAD: usize = 16;
+
+/// Hints the component of the `i`-th neighbour in `ks` (its link list's header) and their
+/// link, if there is such a neighbour.
+#[inline(always)]
+fn hint_link(comps: &[Comp], store: &LinkStore, ks: &[(u32, u32)], i: usize) {
+    if let Some(&(k, sk)) = ks.get(i) {
+        prefetch_all(&comps[k as usize].links);
+        prefetch_all(&store.links[sk as usize]);
+    }
+}
+
+/// Hints the first entries of the `i`-th neighbour's link list (its header, hinted
+/// earlier by [`hint_link`], is read here).
+#[inline(always)]
+fn hint_list(comps: &[Comp], ks: &[(u32, u32)], i: usize) {
+    if let Some(first) = ks.get(i).and_then(|&(k, _)| comps[k as usize].links.0.first()) {
+        prefetch(first);
+    }
+}
+
 /// Collapses `b` into `a` in the link graph: drops their link, and moves each other link
 /// of `b` to `a`, fused with `a`'s own link to the same neighbour (`Link::fuse`, `a`'s
 /// side first) where it has one. `ca` and `cb` are the two components, taken out of
@@ -1037,20 +1061,19 @@ fn merge_links(comps: &mut [Comp], store: &mut LinkStore, ca: &mut Comp, cb: &Co
     if let Some(s) = ca.links.remove(b) {
         store.release(s);
     }
-    // The neighbours are random ids: their components, links and link lists are asked
-    // for first (hints only; nothing below depends on them), so that their cache misses
-    // overlap instead of coming one after another.
+    // The neighbours are random ids: their components and links are asked for `AHEAD`
+    // neighbours ahead, their link lists half as far (hints only; nothing below depends
+    // on them), so that their cache misses overlap instead of coming one after another.
     let ks = &cb.links.0;
-    for &(k, sk) in ks {
-        prefetch_all(&comps[k as usize].links);
-        prefetch_all(&store.links[sk as usize]);
+    for i in 0..AHEAD {
+        hint_link(comps, store, ks, i);
     }
-    for &(k, _) in ks {
-        if let Some(first) = comps[k as usize].links.0.first() {
-            prefetch(first);
-        }
+    for i in 0..AHEAD / 2 {
+        hint_list(comps, ks, i);
     }
-    for &(k, sk) in ks {
+    for (i, &(k, sk)) in ks.iter().enumerate() {
+        hint_link(comps, store, ks, i + AHEAD);
+        hint_list(comps, ks, i + AHEAD / 2);
         if k == a {
             continue;
         }
@@ -2786,12 +2809,19 @@ fn merge<I: Ids>(
         comps[a] = ca;
         if all {
             // Every link of the survivor, in its order (no sorted key list).
-            // (The neighbours' components and the links first, as hints: random ids.)
-            for &(k, slot) in &comps[a].links.0 {
-                prefetch_all(&comps[k as usize]);
-                prefetch_all(&store.links[slot as usize]);
+            // (The neighbours' components and the links `AHEAD` ahead, as hints: random
+            // ids.)
+            let hint = |comps: &[Comp], store: &LinkStore, i: usize| {
+                if let Some(&(k, slot)) = comps[a].links.0.get(i) {
+                    prefetch_all(&comps[k as usize]);
+                    prefetch_all(&store.links[slot as usize]);
+                }
+            };
+            for i in 0..AHEAD {
+                hint(&comps, &store, i);
             }
             for i in 0..comps[a].links.len() {
+                hint(&comps, &store, i + AHEAD);
                 let (k, slot) = comps[a].links.0[i];
                 let lk = store.links[slot as usize];
                 let (x, y) = if (a as u32) < k { (a as u32, k) } else { (k, a as u32) };
