@@ -2322,22 +2322,23 @@ fn merge<I: Ids>(
         let (a, b) = (ids.local(a.0)?, ids.local(b.0)?);
         (comps[a as usize].alive() && comps[b as usize].alive() && a != b).then_some((a, b))
     };
-    let portals = || {
-        scope
-            .portals
-            .unwrap_or(&[])
-            .iter()
-            .map(|&k| k as usize)
-            .chain(0..all_portals)
-    };
+    // The scope's `i`-th portal (its list, or every portal of the complex).
+    let portal_at = |i: usize| scope.portals.map_or(i, |list| list[i] as usize);
+    let scope_portals = scope.portals.map_or(all_portals, <[u32]>::len);
+    // Each scope portal's two live cells (`NONE` when not live), on every core: both loops
+    // below read them in order (a portal is a large record; this is 8 bytes).
+    const NONE: (u32, u32) = (u32::MAX, u32::MAX);
+    let ends: Vec<(u32, u32)> = (0..scope_portals)
+        .into_par_iter()
+        .with_min_len(4096)
+        .map(|i| live(&comps, portal_at(i)).unwrap_or(NONE))
+        .collect();
     // Each component's links sized at once (its portals bound its neighbours), instead of
     // grown by insertions: the same links, without the reallocations.
     let mut degree = vec![0u32; n];
-    for k in portals() {
-        if let Some((a, b)) = live(&comps, k) {
-            degree[a as usize] += 1;
-            degree[b as usize] += 1;
-        }
+    for &(a, b) in ends.iter().filter(|&&e| e != NONE) {
+        degree[a as usize] += 1;
+        degree[b as usize] += 1;
     }
     for (k, &d) in comps.iter_mut().zip(&degree) {
         if d > 0 {
@@ -2346,11 +2347,29 @@ fn merge<I: Ids>(
     }
     let mut store = LinkStore::with_capacity(degree.iter().map(|&d| d as usize).sum::<usize>() / 2);
     drop(degree);
-    for k in portals() {
-        if let Some((a, b)) = live(&comps, k) {
-            add_link(&mut comps, &mut store, a, b, &portal_link(cx, field, k));
+    // The links in the portals' order; each chunk's links made on every core first (a
+    // chunk at a time: a few MB, not a link per portal held at once).
+    const CHUNK: usize = 1 << 16;
+    for (c, chunk) in ends.chunks(CHUNK).enumerate() {
+        let links: Vec<Link> = chunk
+            .par_iter()
+            .with_min_len(1024)
+            .enumerate()
+            .map(|(j, &e)| {
+                if e == NONE {
+                    Link::EMPTY
+                } else {
+                    portal_link(cx, field, portal_at(c * CHUNK + j))
+                }
+            })
+            .collect();
+        for (&(a, b), l) in chunk.iter().zip(&links) {
+            if (a, b) != NONE {
+                add_link(&mut comps, &mut store, a, b, l);
+            }
         }
     }
+    drop(ends);
     // The complex portals of each cell and the component of each cell (union-find), for
     // the gate's refined saddles.
     // (Those are listed beside the first weighing, below.)
