@@ -3,7 +3,9 @@
 //!
 //! The tree is built by the binned surface area heuristic down to `SAH_DEPTH` levels and
 //! by median splits on the longest axis of the triangles' centroid box below, leaves of at
-//! most `LEAF` (4) triangles. A query is a best-first descent that skips only
+//! most `LEAF` (4) triangles. Each triangle's centroid and box are computed once for the
+//! build (an [`Item`]), not at every level: the same bins and boxes, bit for bit (`min`
+//! and `max` are exact), so the same tree, in half the time. A query is a best-first descent that skips only
 //! nodes whose box is at least as far as the nearest triangle found so far, so its answer
 //! is the minimum of the point–triangle distances (Ericson 2005, 5.1.5) over *all*
 //! triangles, whatever the tree's shape: the same inputs give the same bits.
@@ -307,7 +309,7 @@ fn grow(lo: &mut P3, hi: &mut P3, t: &[P3; 3]) {
 /// caller splits at the median). Architecture's flat clusters (a floor, a wall) get flat
 /// boxes of their own, which a query beside them skips, where median splits on the longest
 /// axis cut across a room and keep boxes that contain the query point for several levels.
-fn sah_split(tris: &mut [[P3; 3]], clo: P3, chi: P3) -> Option<usize> {
+fn sah_split(tris: &mut [Item], clo: P3, chi: P3) -> Option<usize> {
     let bin_of = |c: f64, k: usize| -> usize {
         let e = chi[k] - clo[k];
         let b = ((c - clo[k]) / e * BINS as f64) as usize;
@@ -325,12 +327,11 @@ fn sah_split(tris: &mut [[P3; 3]], clo: P3, chi: P3) -> Option<usize> {
     let mut blos = [[[f64::INFINITY; 3]; BINS]; 3];
     let mut bhis = [[[f64::NEG_INFINITY; 3]; BINS]; 3];
     for t in tris.iter() {
-        let c = centroid(t);
         for k in 0..3 {
             if ok[k] {
-                let b = bin_of(c[k], k);
+                let b = bin_of(t.c[k], k);
                 counts[k][b] += 1;
-                grow(&mut blos[k][b], &mut bhis[k][b], t);
+                grow_box(&mut blos[k][b], &mut bhis[k][b], t);
             }
         }
     }
@@ -371,7 +372,7 @@ fn sah_split(tris: &mut [[P3; 3]], clo: P3, chi: P3) -> Option<usize> {
     let mut i = 0;
     let mut j = tris.len();
     while i < j {
-        if bin_of(centroid(&tris[i])[k], k) <= b {
+        if bin_of(tris[i].c[k], k) <= b {
             i += 1;
         } else {
             j -= 1;
@@ -394,6 +395,55 @@ const PAR_MIN: usize = 1 << 15;
 /// concatenated level by level, which left up to five generations of freed node lists in
 /// the worker threads' malloc arena (about 50 MiB at a million triangles).
 fn build_par(tris: &mut [[P3; 3]], par_min: usize) -> Vec<Node> {
+    use rayon::prelude::*;
+    let mut items = items_of(tris);
+    let nodes = build_items(&mut items, par_min);
+    let order: Vec<u32> = items.iter().map(|it| it.t).collect();
+    drop(items);
+    let sorted: Vec<[P3; 3]> = order.par_iter().map(|&i| tris[i as usize]).collect();
+    tris.copy_from_slice(&sorted);
+    nodes
+}
+
+/// A triangle as the build sees it: its centroid and box (computed once, not at every
+/// level), and its index in the input.
+#[derive(Clone, Copy, Debug)]
+struct Item {
+    c: P3,
+    lo: P3,
+    hi: P3,
+    t: u32,
+}
+
+fn items_of(tris: &[[P3; 3]]) -> Vec<Item> {
+    use rayon::prelude::*;
+    tris.par_iter()
+        .enumerate()
+        .with_min_len(1 << 12)
+        .map(|(i, t)| {
+            let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+            grow(&mut lo, &mut hi, t);
+            Item {
+                c: centroid(t),
+                lo,
+                hi,
+                t: i as u32,
+            }
+        })
+        .collect()
+}
+
+/// The box of a box and an item's (the same bits as growing it by the item's vertices:
+/// `min` and `max` are exact).
+fn grow_box(lo: &mut P3, hi: &mut P3, t: &Item) {
+    for k in 0..3 {
+        lo[k] = lo[k].min(t.lo[k]);
+        hi[k] = hi[k].max(t.hi[k]);
+    }
+}
+
+/// [`build_par`] on the items (permuted in place: the tree's triangle order).
+fn build_items(tris: &mut [Item], par_min: usize) -> Vec<Node> {
     let n = tris.len();
     if n < par_min.max(2) {
         let mut nodes = Vec::with_capacity(2 * n / LEAF + 1);
@@ -434,7 +484,7 @@ fn build_par(tris: &mut [[P3; 3]], par_min: usize) -> Vec<Node> {
 /// the left subtree's region next, then the right one's (inner nodes name their right
 /// child by buffer slot). Returns the runs of slots written, `[start, end)`, in order.
 fn fill(
-    tris: &mut [[P3; 3]],
+    tris: &mut [Item],
     base: usize,
     depth: usize,
     out: &mut [std::mem::MaybeUninit<Node>],
@@ -487,14 +537,14 @@ fn fill(
 
 /// The node of `tris[first..end]` (a leaf's triangles are `base + first..` of the field)
 /// and, unless it is a leaf, where the range splits (its triangles partitioned in place).
-fn node_and_split(tris: &mut [[P3; 3]], base: usize, first: usize, end: usize, depth: usize) -> (Node, Option<usize>) {
+fn node_and_split(tris: &mut [Item], base: usize, first: usize, end: usize, depth: usize) -> (Node, Option<usize>) {
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
     let mut clo = [f64::INFINITY; 3];
     let mut chi = [f64::NEG_INFINITY; 3];
     for t in &tris[first..end] {
-        grow(&mut lo, &mut hi, t);
-        let c = centroid(t);
+        grow_box(&mut lo, &mut hi, t);
+        let c = t.c;
         for k in 0..3 {
             clo[k] = clo[k].min(c[k]);
             chi[k] = chi[k].max(c[k]);
@@ -521,8 +571,7 @@ fn node_and_split(tris: &mut [[P3; 3]], base: usize, first: usize, end: usize, d
                 .max_by(|&a, &b| (chi[a] - clo[a]).total_cmp(&(chi[b] - clo[b])))
                 .unwrap_or(0);
             let mid = (first + end) / 2;
-            tris[first..end]
-                .select_nth_unstable_by(mid - first, |a, b| centroid(a)[axis].total_cmp(&centroid(b)[axis]));
+            tris[first..end].select_nth_unstable_by(mid - first, |a, b| a.c[axis].total_cmp(&b.c[axis]));
             mid
         }
     };
@@ -532,7 +581,7 @@ fn node_and_split(tris: &mut [[P3; 3]], base: usize, first: usize, end: usize, d
 /// Appends the subtree of `tris[first..end]` to `nodes` in depth-first order (a node, its
 /// left subtree, its right subtree; an inner node's `first` is its right child's index in
 /// `nodes`): its root's index.
-fn build_at(tris: &mut [[P3; 3]], base: usize, first: usize, end: usize, depth: usize, nodes: &mut Vec<Node>) -> u32 {
+fn build_at(tris: &mut [Item], base: usize, first: usize, end: usize, depth: usize, nodes: &mut Vec<Node>) -> u32 {
     let (node, split) = node_and_split(tris, base, first, end, depth);
     let me = nodes.len() as u32;
     nodes.push(node);
@@ -587,10 +636,11 @@ mod tests {
             tris.push(t);
         }
         let key = |n: &Node| (n.lo.map(f64::to_bits), n.hi.map(f64::to_bits), n.first, n.count);
-        let mut serial_tris = tris.clone();
+        let mut serial_items = items_of(&tris);
         let mut serial = Vec::new();
         let n = tris.len();
-        build_at(&mut serial_tris, 0, 0, n, 0, &mut serial);
+        build_at(&mut serial_items, 0, 0, n, 0, &mut serial);
+        let serial_tris: Vec<[P3; 3]> = serial_items.iter().map(|it| tris[it.t as usize]).collect();
         for par_min in [0, 1, 2, 5, 64, 1000, n + 1] {
             let mut t = tris.clone();
             let nodes = build_par(&mut t, par_min);
