@@ -28,8 +28,11 @@
 //! neighbouring components (joined by portals) have the saddle
 //! `s = max over portals between them of the portal's value` — the highest pass between
 //! them — and the weight `w = min(peak_a, peak_b) / s`, the **relative persistence** of
-//! the lower peak (≥ 1 up to sampling: a path is never higher than its ends). The lowest weight is collapsed first (ties: the higher saddle first, then
-//! the cell ids), as in the thesis's bottom-up decimation, and each collapse's weight is
+//! the lower peak (≥ 1 up to sampling: a path is never higher than its ends). The lowest
+//! weight is collapsed first (ties: the higher saddle first, then the pair whose higher
+//! peak is higher — a cell with two ways up joins the higher neighbour, whatever the
+//! tetrahedra's numbering ([`KeyLayout`]) — then the cell ids), as in the thesis's
+//! bottom-up decimation, and each collapse's weight is
 //! recorded (the weight curve). A cell that is not a local maximum joins a neighbour at
 //! weight 1; a small bump of the field inside a room joins at a weight just above 1; a
 //! room joins its neighbour only through its doorway, at the ratio of its inscribed-ball
@@ -184,6 +187,9 @@ pub struct CellField {
     /// along the best sampled path from one cell's best sample through the portal to the
     /// other's.
     pub passage: Vec<f64>,
+    /// The lowest positive and the highest `value` (1, 1 when none is positive): the
+    /// range of the merge's tie-break ([`KeyLayout`]).
+    pub range: [f64; 2],
     /// The distance field itself. (A cell's best sample, where `value` was found, is not
     /// stored — 32 bytes per cell id, 74 MB for a million triangles — but found again
     /// where needed, from the same queries: [`CellField::best_of`].)
@@ -383,11 +389,17 @@ impl CellField {
                 portal_passage(&field, &p.pieces, peaks[a.idx()], peaks[b.idx()])
             })
             .collect();
-        let value = peaks
+        let value: Vec<f64> = peaks
             .iter()
             .map(|&(bv, _)| if bv.is_finite() { bv.max(0.0) } else { 0.0 })
             .collect();
-        CellField { value, passage, field }
+        let range = value_range(&value);
+        CellField {
+            value,
+            passage,
+            range,
+            field,
+        }
     }
 
     /// The best sample of an active cell: (its clearance, as the field returned it, before
@@ -395,6 +407,18 @@ impl CellField {
     pub fn best_of(&self, cell: &Cell) -> (f64, [f64; 3]) {
         best_sample(&self.field, cell)
     }
+}
+
+/// The lowest positive and the highest of `values` (`[1, 1]` when none is positive).
+fn value_range(values: &[f64]) -> [f64; 2] {
+    let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
+    for &v in values {
+        if v > 0.0 {
+            lo = lo.min(v);
+            hi = hi.max(v);
+        }
+    }
+    if lo.is_finite() { [lo, hi] } else { [1.0, 1.0] }
 }
 
 /// Samples of a convex cell: its centroid, and the midpoints from it to each vertex and
@@ -792,6 +816,9 @@ const REFINED: u32 = 1 << 30;
 struct Entry {
     weight: f64,
     saddle: f64,
+    /// The higher of the two components' peaks when the pair was weighed, quantized
+    /// ([`KeyLayout::top`]): the tie-break before the ids.
+    top: u64,
     a: u32,
     b: u32,
 }
@@ -809,19 +836,82 @@ impl PartialOrd for Entry {
 }
 impl Ord for Entry {
     fn cmp(&self, o: &Self) -> Ordering {
-        // Lowest weight first, then the highest saddle, then the lowest ids.
+        // Lowest weight first, then the highest saddle, then the highest top, then the
+        // lowest ids.
         o.weight
             .total_cmp(&self.weight)
             .then(self.saddle.total_cmp(&o.saddle))
+            .then(self.top.cmp(&o.top))
             .then(o.a.cmp(&self.a))
             .then(o.b.cmp(&self.b))
     }
 }
 
+/// How a [`Key`]'s last word holds the tie-break and the ids: `id` bits per id (enough
+/// for every cell id of the complex, so a group's local ids and the complex's share the
+/// layout and compare alike), the quantized top in the `64 - 2 * id` bits above them.
+///
+/// **Why the top.** Pairs of equal weight and saddle are common: a cell that is not a
+/// local maximum joins a neighbour at weight exactly 1 with its own peak as the saddle,
+/// and with two such neighbours the tie decides which room it joins. Broken by the ids
+/// alone, the choice follows the tetrahedra's numbering, which moves with the model
+/// (scaled by 10^6, a generated two-storey building isolated 5 of 7 rooms where the
+/// model as given isolated 7, because a piece between a pillar and a wide opening went
+/// to the other room). The higher neighbour's peak is a length of the model, so the
+/// tie-break is the same under rotations, offsets and scales (up to rounding): the cell
+/// joins the neighbour whose peak is highest, the steepest way up the clearance field.
+/// Quantized to the bits left beside the ids (20 at a million triangles: relative steps
+/// of 2^-12), so a key stays three words (24 bytes; a fourth word cost 28 MiB at a
+/// million triangles, beside a 2 GiB goal); tops within a step fall back to the ids.
+#[derive(Clone, Copy, Debug)]
+struct KeyLayout {
+    id: u32,
+    /// `total_bits` of the lowest positive peak: tops at or below it quantize to 0.
+    base: u64,
+    /// Right shift of a top's `total_bits` above `base`, so that the highest peak fits.
+    shift: u32,
+}
+
+impl KeyLayout {
+    /// The layout for cell ids `0..cells` and peaks in `range` (lowest positive, highest:
+    /// [`CellField::range`]).
+    fn of(cells: usize, range: [f64; 2]) -> Self {
+        let max = cells.saturating_sub(1).max(1) as u64;
+        let id = (64 - max.leading_zeros()).min(32);
+        let base = total_bits(range[0]);
+        let span = total_bits(range[1]).saturating_sub(base);
+        let top_bits = 64 - 2 * id;
+        // The least shift that brings the span below 2^top_bits.
+        let shift = if top_bits == 0 {
+            64
+        } else {
+            (64 - span.leading_zeros()).saturating_sub(top_bits)
+        };
+        KeyLayout { id, base, shift }
+    }
+
+    /// Bits of the quantized top (0 when the ids take the whole word).
+    fn top_bits(self) -> u32 {
+        64 - 2 * self.id
+    }
+
+    /// The top's quantization: its `total_cmp` order above the lowest peak, shifted to
+    /// fit the bits left (monotone; NaN and tops above the range saturate).
+    fn top(self, peak: f64) -> u64 {
+        match self.top_bits() {
+            0 => 0,
+            t => {
+                let q = total_bits(peak).saturating_sub(self.base) >> self.shift.min(63);
+                q.min((1u64 << t) - 1)
+            }
+        }
+    }
+}
+
 /// An [`Entry`] as the heap stores it: three integers whose lexicographic order is
-/// `Entry`'s (`Key::of` is one to one and order-preserving, `entry` its inverse;
-/// `heap_keys_order_and_decode_as_entries`), so a comparison is three integer compares
-/// instead of a chain of `total_cmp`s.
+/// `Entry`'s (`Key::of` is one to one and order-preserving, `entry` its inverse, for
+/// entries whose ids and top fit the layout; `heap_keys_order_and_decode_as_entries`),
+/// so a comparison is three integer compares instead of a chain of `total_cmp`s.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 struct Key(u64, u64, u64);
 
@@ -838,24 +928,34 @@ fn from_total_bits(u: u64) -> f64 {
 }
 
 impl Key {
-    /// Greater pops first: the lower weight, then the higher saddle, then the lower ids.
-    fn of(e: Entry) -> Key {
-        Key(
-            !total_bits(e.weight),
-            total_bits(e.saddle),
-            !(((e.a as u64) << 32) | e.b as u64),
-        )
+    /// Greater pops first: the lower weight, then the higher saddle, then the higher top,
+    /// then the lower ids.
+    fn of(e: Entry, lay: KeyLayout) -> Key {
+        let ids = ((e.a as u64) << lay.id) | e.b as u64;
+        let low = !ids & low_mask(2 * lay.id);
+        let top = if lay.top_bits() == 0 { 0 } else { e.top << (2 * lay.id) };
+        Key(!total_bits(e.weight), total_bits(e.saddle), top | low)
     }
 
-    fn entry(self) -> Entry {
-        let ids = !self.2;
+    fn entry(self, lay: KeyLayout) -> Entry {
+        let ids = !self.2 & low_mask(2 * lay.id);
         Entry {
-            weight: from_total_bits(!self.0),
+            weight: self.weight(),
             saddle: from_total_bits(self.1),
-            a: (ids >> 32) as u32,
-            b: ids as u32,
+            top: if lay.top_bits() == 0 { 0 } else { self.2 >> (2 * lay.id) },
+            a: (ids >> lay.id) as u32,
+            b: (ids & low_mask(lay.id)) as u32,
         }
     }
+
+    fn weight(self) -> f64 {
+        from_total_bits(!self.0)
+    }
+}
+
+/// The lowest `n` bits set (`n <= 64`).
+fn low_mask(n: u32) -> u64 {
+    if n >= 64 { u64::MAX } else { (1u64 << n) - 1 }
 }
 
 /// Per-component state (72 bytes: one per cell id, so 2.3 million of them for a million
@@ -2378,13 +2478,19 @@ fn merge<I: Ids>(
     if gate.is_some() {
         owner = (0..n as u32).collect();
     }
+    // The keys' layout: from the complex's cell count, so a group's keys and the whole
+    // complex's compare alike.
+    let lay = KeyLayout::of(cx.cells.len(), field.range);
     // A popped entry's key under the complex's ids (for `events`).
     let global_key = |e: Entry| {
-        Key::of(Entry {
-            a: ids.global(e.a),
-            b: ids.global(e.b),
-            ..e
-        })
+        Key::of(
+            Entry {
+                a: ids.global(e.a),
+                b: ids.global(e.b),
+                ..e
+            },
+            lay,
+        )
     };
     stats.initial_cells = cells;
     stats.initial_pairs = comps.iter().map(|c| c.links.len()).sum::<usize>() / 2;
@@ -2413,7 +2519,7 @@ fn merge<I: Ids>(
     let dedup = trace.is_none();
     // Marks pair `a < b` queued with key (`w`, `saddle`) and gives the entry to push, or
     // `None` when the same key is still queued (see above).
-    let mark = |store: &mut LinkStore, slot: u32, a: u32, b: u32, w: f64, saddle: f64| -> Option<Entry> {
+    let mark = |store: &mut LinkStore, slot: u32, a: u32, b: u32, w: f64, saddle: f64, top: f64| -> Option<Entry> {
         let la = store.at(slot);
         if dedup && la.queued.to_bits() == w.to_bits() {
             return None;
@@ -2422,13 +2528,23 @@ fn merge<I: Ids>(
         Some(Entry {
             weight: w,
             saddle,
+            top: lay.top(top),
             a,
             b,
         })
     };
-    let requeue = |store: &mut LinkStore, heap: &mut RunHeap<Key>, slot: u32, a: u32, b: u32, w: f64, saddle: f64| {
-        if let Some(e) = mark(store, slot, a, b, w, saddle) {
-            heap.push(Key::of(e));
+    // `force`: push even when an entry of the same weight is queued (its top is stale: a
+    // side's peak rose; the stale entry is skipped at its pop).
+    let requeue = |store: &mut LinkStore,
+                   heap: &mut RunHeap<Key>,
+                   (slot, a, b): (u32, u32, u32),
+                   (w, saddle, top): (f64, f64, f64),
+                   force: bool| {
+        if force {
+            store.at(slot).queued = f64::NAN;
+        }
+        if let Some(e) = mark(store, slot, a, b, w, saddle, top) {
+            heap.push(Key::of(e, lay));
         }
     };
     // Every live pair: at the start, and again after a constrained stretch (whose pairs
@@ -2447,8 +2563,16 @@ fn merge<I: Ids>(
                     let l = store.links[slot as usize];
                     stats.weights_computed += 1;
                     let w = weigh(&comps[a], &comps[b as usize], &l);
-                    if let Some(e) = mark(store, slot, a as u32, b, w, l.saddle) {
-                        bulk.push(Key::of(e));
+                    if let Some(e) = mark(
+                        store,
+                        slot,
+                        a as u32,
+                        b,
+                        w,
+                        l.saddle,
+                        comps[a].peak.max(comps[b as usize].peak),
+                    ) {
+                        bulk.push(Key::of(e, lay));
                     }
                 }
             }
@@ -2513,7 +2637,7 @@ fn merge<I: Ids>(
     let mut constrained = labels.is_some();
     let stop = loop {
         #[cfg(test)]
-        queue_audit::check(&comps, &store, &heap);
+        queue_audit::check(&comps, &store, &heap, lay);
         if events.as_ref().is_some_and(|ev| ev.len() >= scope.cap) {
             break StopReason::Exhausted;
         }
@@ -2522,7 +2646,7 @@ fn merge<I: Ids>(
         {
             break StopReason::Cells { target };
         }
-        let Some(e) = heap.pop().map(Key::entry) else {
+        let Some(e) = heap.pop().map(|k| k.entry(lay)) else {
             if !constrained {
                 break StopReason::Exhausted;
             }
@@ -2552,7 +2676,10 @@ fn merge<I: Ids>(
             continue;
         };
         let l = store.links[slot as usize];
-        if l.saddle.to_bits() != e.saddle.to_bits() || weigh(&comps[a], &comps[b], &l).to_bits() != e.weight.to_bits() {
+        if l.saddle.to_bits() != e.saddle.to_bits()
+            || weigh(&comps[a], &comps[b], &l).to_bits() != e.weight.to_bits()
+            || lay.top(comps[a].peak.max(comps[b].peak)) != e.top
+        {
             continue;
         }
         // This pair's entry has left the heap.
@@ -2663,7 +2790,13 @@ fn merge<I: Ids>(
             *store.at(slot) = l2;
             stats.weights_computed += 1;
             let w2 = weigh(&comps[a], &comps[b], &l2);
-            requeue(&mut store, &mut heap, slot, e.a, e.b, w2, l2.saddle);
+            requeue(
+                &mut store,
+                &mut heap,
+                (slot, e.a, e.b),
+                (w2, l2.saddle, comps[a].peak.max(comps[b].peak)),
+                false,
+            );
             if let Some(ev) = events.as_deref_mut() {
                 ev.push(Event {
                     key: global_key(e),
@@ -2801,6 +2934,9 @@ fn merge<I: Ids>(
         // sections grew), all of them. Either set is a list of keys in increasing order,
         // weighed below, once `ca` is back in place.
         let all = pa < pb || h.uses_volume() || gate.is_some();
+        // The survivor's peak rose: its pairs with a new top (the tie-break) are pushed
+        // anew whatever is queued (the old entries are stale at their pop).
+        let rose = pa < pb;
         ca.peak = pa.max(pb);
         ca.volume += cb.volume;
         ca.pieces += cb.pieces;
@@ -2846,7 +2982,11 @@ fn merge<I: Ids>(
                 let (x, y) = if (a as u32) < k { (a as u32, k) } else { (k, a as u32) };
                 stats.weights_computed += 1;
                 let w = weigh(&comps[x as usize], &comps[y as usize], &lk);
-                requeue(&mut store, &mut heap, slot, x, y, w, lk.saddle);
+                let top = comps[x as usize].peak.max(comps[y as usize].peak);
+                // A new top unless the neighbour's peak is at least the old one's.
+                let pk = comps[k as usize].peak;
+                let force = rose && lay.top(pa.max(pk)) != lay.top(pb.max(pk));
+                requeue(&mut store, &mut heap, (slot, x, y), (w, lk.saddle, top), force);
             }
         } else {
             for &k in cb.links.keys().filter(|&&k| k as usize != a) {
@@ -2855,7 +2995,8 @@ fn merge<I: Ids>(
                 let (x, y) = if (a as u32) < k { (a as u32, k) } else { (k, a as u32) };
                 stats.weights_computed += 1;
                 let w = weigh(&comps[x as usize], &comps[y as usize], &lk);
-                requeue(&mut store, &mut heap, slot, x, y, w, lk.saddle);
+                let top = comps[x as usize].peak.max(comps[y as usize].peak);
+                requeue(&mut store, &mut heap, (slot, x, y), (w, lk.saddle, top), false);
             }
         }
     };
@@ -3082,7 +3223,7 @@ fn run_grouped(
             EventKind::Stop => {
                 stop = StopReason::Threshold {
                     threshold: r,
-                    next_weight: key.entry().weight,
+                    next_weight: key.weight(),
                 };
                 break;
             }
@@ -3339,7 +3480,7 @@ fn regions(comps: &[Comp]) -> usize {
 /// saddle, so skipping a push of that key never loses the pair.
 #[cfg(test)]
 mod queue_audit {
-    use super::{Comp, Key, LinkStore, RunHeap};
+    use super::{Comp, Key, KeyLayout, LinkStore, RunHeap};
     use std::cell::Cell;
 
     thread_local! {
@@ -3349,14 +3490,14 @@ mod queue_audit {
 
     /// Every 64th pop (a whole-heap check at every pop made the test take minutes): a
     /// wrong mark stays until its pair is weighed anew, so it is still seen.
-    pub fn check(comps: &[Comp], store: &LinkStore, heap: &RunHeap<Key>) {
+    pub fn check(comps: &[Comp], store: &LinkStore, heap: &RunHeap<Key>, lay: KeyLayout) {
         if !ON.with(Cell::get) || !POPS.with(|p| p.replace(p.get() + 1)).is_multiple_of(64) {
             return;
         }
-        let queued: std::collections::HashSet<(u32, u32, u64, u64)> = heap
+        let queued: std::collections::HashSet<(u32, u32, u64, u64, u64)> = heap
             .iter()
-            .map(|k| k.entry())
-            .map(|e| (e.a, e.b, e.weight.to_bits(), e.saddle.to_bits()))
+            .map(|k| k.entry(lay))
+            .map(|e| (e.a, e.b, e.weight.to_bits(), e.saddle.to_bits(), e.top))
             .collect();
         for (a, c) in comps.iter().enumerate() {
             if !c.alive() {
@@ -3365,8 +3506,9 @@ mod queue_audit {
             for &(b, slot) in &c.links.0 {
                 let l = store.links[slot as usize];
                 if (a as u32) < b && !l.queued.is_nan() {
+                    let top = lay.top(c.peak.max(comps[b as usize].peak));
                     assert!(
-                        queued.contains(&(a as u32, b, l.queued.to_bits(), l.saddle.to_bits())),
+                        queued.contains(&(a as u32, b, l.queued.to_bits(), l.saddle.to_bits(), top)),
                         "pair ({a}, {b}) marked queued at {} with no such entry in the heap",
                         l.queued
                     );
@@ -3865,24 +4007,40 @@ mod tests {
                 (rng.unit() - 0.3) * 4.0
             }
         };
-        let es: Vec<Entry> = (0..400)
-            .map(|_| Entry {
-                weight: pick(&mut rng),
-                saddle: pick(&mut rng),
-                a: (rng.unit() * 4.0) as u32 * 0x4000_0001,
-                b: (rng.unit() * 4.0) as u32 * 0x3fff_ffff,
-            })
-            .collect();
-        for x in &es {
-            let d = Key::of(*x).entry();
-            assert_eq!(
-                (d.weight.to_bits(), d.saddle.to_bits(), d.a, d.b),
-                (x.weight.to_bits(), x.saddle.to_bits(), x.a, x.b)
-            );
-            for y in &es {
-                assert_eq!(Key::of(*x).cmp(&Key::of(*y)), x.cmp(y), "{x:?} vs {y:?}");
+        // Layouts of few and of many cells (32-bit ids: no room for the top).
+        for cells in [2usize, 5, 1 << 20, 2_306_001, 1 << 31, u32::MAX as usize + 1] {
+            let lay = KeyLayout::of(cells, [0.25, 4.0]);
+            let max = (cells - 1) as u32;
+            let id = |rng: &mut crate::base::rng::SplitMix64| [0, 1, max / 2, max][(rng.unit() * 4.0) as usize % 4];
+            let es: Vec<Entry> = (0..300)
+                .map(|_| Entry {
+                    weight: pick(&mut rng),
+                    saddle: pick(&mut rng),
+                    top: lay.top(pick(&mut rng)),
+                    a: id(&mut rng),
+                    b: id(&mut rng),
+                })
+                .collect();
+            for x in &es {
+                let d = Key::of(*x, lay).entry(lay);
+                assert_eq!(
+                    (d.weight.to_bits(), d.saddle.to_bits(), d.top, d.a, d.b),
+                    (x.weight.to_bits(), x.saddle.to_bits(), x.top, x.a, x.b)
+                );
+                for y in &es {
+                    assert_eq!(Key::of(*x, lay).cmp(&Key::of(*y, lay)), x.cmp(y), "{x:?} vs {y:?}");
+                }
             }
         }
+        // The quantized top is monotone, and at a million triangles' layout, with peaks
+        // over a factor 64, keeps relative steps of 2^-13 apart.
+        let lay = KeyLayout::of(2_306_001, [0.05, 3.2]);
+        assert_eq!(lay.top_bits(), 20);
+        assert!(lay.top(1.0) < lay.top(1.0 + 1.0 / 8192.0));
+        assert!(lay.top(0.5) < lay.top(1.0) && lay.top(1.0) <= lay.top(1.0 + f64::EPSILON));
+        assert_eq!(lay.top(0.0), 0);
+        assert_eq!(lay.top(0.05), 0);
+        assert!(lay.top(3.2) < 1 << 20 && lay.top(f64::NAN) == (1 << 20) - 1);
     }
 
     #[test]

@@ -165,7 +165,8 @@ impl ClearanceField {
     /// below `lb`, where the search stops). Every answer above `lb` is exact, so a caller
     /// that treats all values at or below `lb` alike (a maximum with `lb`, a test `> lb`)
     /// decides as with `distance_below`, at the price of a search that stops at the first
-    /// triangle at or below `lb` (often the warm start's). `lb <= 0` or NaN never stops early.
+    /// triangle at or below `lb` (often the warm start's), or none when the bound `ub` is
+    /// already below `lb` (the answer is then `lb`). `lb <= 0` or NaN never stops early.
     pub fn distance_above(&self, p: P3, lb: f64, ub: f64) -> f64 {
         // The same rounding margin as `distance_below`'s, here also on the stop: the
         // squared threshold is a little below `lb²`, so the square root of a distance that
@@ -182,6 +183,11 @@ impl ClearanceField {
         } else {
             f64::INFINITY
         };
+        // The bound is already at or below the floor (well past rounding: `MARGIN`
+        // twice): the distance is too, and `lb` is such a value. No search.
+        if bound2 <= stop2 {
+            return lb;
+        }
         match self.search(p, bound2, stop2) {
             Some(d) => d,
             None if bound2.is_finite() => self.search(p, f64::INFINITY, stop2).unwrap_or(f64::INFINITY),
