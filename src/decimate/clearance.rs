@@ -853,17 +853,18 @@ impl Ord for Entry {
 ///
 /// **Why the top** (at weight 1 only: [`KeyLayout::key_top`]). Pairs of equal weight and
 /// saddle are common: a cell that is not a local maximum joins a neighbour at weight
-/// exactly 1 with its own peak as the saddle,
-/// and with two such neighbours the tie decides which room it joins. Broken by the ids
+/// exactly 1 with its own peak as the saddle, and with two such neighbours the tie
+/// decides which room it joins. Broken by the ids
 /// alone, the choice follows the tetrahedra's numbering, which moves with the model
 /// (scaled by 10^6, a generated two-storey building isolated 5 of 7 rooms where the
 /// model as given isolated 7, because a piece between a pillar and a wide opening went
 /// to the other room). The higher neighbour's peak is a length of the model, so the
 /// tie-break is the same under rotations, offsets and scales (up to rounding): the cell
 /// joins the neighbour whose peak is highest, the steepest way up the clearance field.
-/// Quantized to the bits left beside the ids (20 at a million triangles: relative steps
-/// of 2^-12), so a key stays three words (24 bytes; a fourth word cost 28 MiB at a
-/// million triangles, beside a 2 GiB goal); tops within a step fall back to the ids.
+/// Quantized over the field's range of peaks into the bits the ids leave (20 at a
+/// million triangles: relative steps of 2^-13 when the peaks span a factor 64), so a key
+/// stays three words (24 bytes; a fourth word cost 28 MiB at a million triangles, beside
+/// a 2 GiB goal); tops within a step fall back to the ids.
 #[derive(Clone, Copy, Debug)]
 struct KeyLayout {
     id: u32,
