@@ -816,8 +816,8 @@ const REFINED: u32 = 1 << 30;
 struct Entry {
     weight: f64,
     saddle: f64,
-    /// The higher of the two components' peaks when the pair was weighed, quantized
-    /// ([`KeyLayout::top`]): the tie-break before the ids.
+    /// At weight 1, the higher of the two components' peaks when the pair was weighed,
+    /// quantized; else 0 ([`KeyLayout::key_top`]): the tie-break before the ids.
     top: u64,
     a: u32,
     b: u32,
@@ -854,8 +854,8 @@ impl Ord for Entry {
 /// **Why the top** (at weight 1 only: [`KeyLayout::key_top`]). Pairs of equal weight and
 /// saddle are common: a cell that is not a local maximum joins a neighbour at weight
 /// exactly 1 with its own peak as the saddle, and with two such neighbours the tie
-/// decides which room it joins. Broken by the ids
-/// alone, the choice follows the tetrahedra's numbering, which moves with the model
+/// decides which room it joins. Broken by the ids alone, the choice follows the
+/// tetrahedra's numbering, which moves with the model
 /// (scaled by 10^6, a generated two-storey building isolated 5 of 7 rooms where the
 /// model as given isolated 7, because a piece between a pillar and a wide opening went
 /// to the other room). The higher neighbour's peak is a length of the model, so the
@@ -2945,10 +2945,10 @@ fn merge<I: Ids>(
         // volume); with the volumes and piece counts in the context, or a gate (whose
         // sections grew), all of them. Either set is a list of keys in increasing order,
         // weighed below, once `ca` is back in place.
-        let all = pa < pb || h.uses_volume() || gate.is_some();
         // The survivor's peak rose: its pairs with a new top (the tie-break) are pushed
         // anew whatever is queued (the old entries are stale at their pop).
         let rose = pa < pb;
+        let all = rose || h.uses_volume() || gate.is_some();
         ca.peak = pa.max(pb);
         ca.volume += cb.volume;
         ca.pieces += cb.pieces;

@@ -5,10 +5,11 @@
 //! by median splits on the longest axis of the triangles' centroid box below, leaves of at
 //! most `LEAF` (4) triangles. Each triangle's centroid and box are computed once for the
 //! build (an [`Item`]), not at every level: the same bins and boxes, bit for bit (`min`
-//! and `max` are exact), so the same tree, in half the time. A query is a best-first descent that skips only
-//! nodes whose box is at least as far as the nearest triangle found so far, so its answer
-//! is the minimum of the point–triangle distances (Ericson 2005, 5.1.5) over *all*
-//! triangles, whatever the tree's shape: the same inputs give the same bits.
+//! and `max` are exact), so the same tree, in half the time. A query is a best-first
+//! descent that skips only nodes whose box is at least as far as the nearest triangle
+//! found so far, so its answer is the minimum of the point–triangle distances (Ericson
+//! 2005, 5.1.5) over *all* triangles, whatever the tree's shape: the same inputs give the
+//! same bits.
 //!
 //! **Warm start.** Queries come in runs of nearby points (the samples of one cell, the
 //! marching along a segment), so each thread remembers the triangle nearest to its last
@@ -404,6 +405,8 @@ fn build_par(tris: &mut [[P3; 3]], par_min: usize) -> Vec<Node> {
     use rayon::prelude::*;
     let mut items = items_of(tris);
     let nodes = build_items(&mut items, par_min);
+    // Only the order is kept: the items (80 bytes a triangle) are freed before the
+    // triangles are copied, so the two are never held at once.
     let order: Vec<u32> = items.iter().map(|it| it.t).collect();
     drop(items);
     let sorted: Vec<[P3; 3]> = order.par_iter().map(|&i| tris[i as usize]).collect();
