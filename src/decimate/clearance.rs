@@ -798,39 +798,41 @@ impl RefinedCache {
 /// What [`core_cut`] returns: the cut's portals, their link, the cells on its two sides.
 type CoreCut = (Vec<u32>, Link, [Vec<u32>; 2]);
 
-/// Core cuts already found in one decimation, by their inputs. [`core_cut`] is a function
-/// of the two components' member lists (in order: they number the flow network's nodes),
-/// the pair's saddle and the two peaks, and the same pair is often judged again on the
-/// same members: by the constrained pass ([`run_grouped`]), which repeats within each
-/// group the first pass's merges, and by groups merged again up to another group's stop
-/// (on a real level, `oa_thor`, 31,077 of 110,293 core cuts, with 35% of the cells the
-/// cuts walked, repeated an earlier one's inputs). An entry keeps its inputs and is used
-/// only when they are equal (the hash only finds the bucket), so a stored cut has the
-/// bits of a new one. Cuts of fewer than [`CoreCuts::MIN_CELLS`] cells are not stored
-/// (they are cheap), and storing stops once the entries hold [`CoreCuts::budget`] ids.
+/// The gate's core-cut judgements already made in one decimation, by their inputs.
+/// [`core_judgement`] is a function of the two components' member lists (in order: they
+/// number the flow network's nodes), the pair's saddle, opening and peaks, and the gate;
+/// and the same pair is often judged again on the same members: by the constrained pass
+/// ([`run_grouped`]), which repeats within each group the first pass's merges below the
+/// threshold, and by groups merged again up to another group's stop (on a real level,
+/// `oa_thor`, 8,787 of 110,293 core cuts, walking 5.1M of the 11.1M cells the cuts walk).
+/// An entry keeps its inputs and is used only when they are equal (the hash only finds
+/// the bucket), so a stored judgement is a new one's. Pairs of fewer than
+/// [`CoreCuts::MIN_CELLS`] cells are judged again (they are cheap), and storing stops once
+/// the entries hold `budget` member ids.
 struct CoreCuts {
     map: std::sync::Mutex<HashMap<u64, Vec<std::sync::Arc<CoreEntry>>, FxBuild>>,
-    /// Ids (member lists and sides) the entries may still hold.
+    /// Member ids the entries may still hold.
     budget: AtomicUsize,
-    /// Cuts taken from the cache (for tests).
+    /// Judgements taken from the cache (for tests).
     hits: AtomicUsize,
 }
 
-/// One stored core cut: its inputs and its result.
+/// One stored judgement: its inputs and its result.
 struct CoreEntry {
     a: Vec<u32>,
     b: Vec<u32>,
-    /// Bits of the saddle and of the two peaks.
-    bits: [u64; 3],
-    cut: Option<CoreCut>,
+    /// Bits of the saddle, the opening and the two peaks.
+    bits: [u64; 4],
+    gate: ApertureGate,
+    kept: bool,
 }
 
 impl CoreCuts {
-    /// Pairs of fewer cells are cut again rather than stored.
+    /// Pairs of fewer cells are judged again rather than stored.
     const MIN_CELLS: usize = 64;
 
-    /// A cache that holds at most about one id per cell of the complex (4 bytes per
-    /// cell; beside the merge's ~150 bytes per cell).
+    /// A cache that holds at most 16 member ids per cell of the complex (64 bytes per
+    /// cell, beside the run's ~1.4 KB per active cell at its peak).
     fn new(cells: usize) -> Self {
         CoreCuts {
             map: std::sync::Mutex::new(HashMap::default()),
@@ -839,31 +841,31 @@ impl CoreCuts {
         }
     }
 
-    fn hash(a: &[u32], b: &[u32], bits: [u64; 3]) -> u64 {
+    fn hash(a: &[u32], b: &[u32], bits: [u64; 4]) -> u64 {
         use std::hash::BuildHasher;
         FxBuild::default().hash_one((a, b, bits))
     }
 
-    /// The stored cut of these inputs, if any.
-    fn get(&self, a: &[u32], b: &[u32], bits: [u64; 3]) -> Option<Option<CoreCut>> {
+    /// The stored judgement of these inputs, if any.
+    fn get(&self, a: &[u32], b: &[u32], bits: [u64; 4], gate: &ApertureGate) -> Option<bool> {
         let h = Self::hash(a, b, bits);
-        let found = {
+        let kept = {
             let map = self.map.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
             map.get(&h)?
                 .iter()
-                .find(|e| e.bits == bits && e.a == a && e.b == b)
-                .cloned()
+                .find(|e| e.bits == bits && e.gate == *gate && e.a == a && e.b == b)
+                .map(|e| e.kept)
         };
-        found.map(|e| {
+        if kept.is_some() {
             self.hits.fetch_add(1, AtomicOrdering::Relaxed);
-            e.cut.clone()
-        })
+        }
+        kept
     }
 
-    /// Stores the cut of these inputs, while the budget lasts.
-    fn put(&self, a: &[u32], b: &[u32], bits: [u64; 3], cut: &Option<CoreCut>) {
-        let ids = a.len() + b.len() + cut.as_ref().map_or(0, |c| c.0.len() + c.2[0].len() + c.2[1].len());
-        if a.len() + b.len() < Self::MIN_CELLS
+    /// Stores the judgement of these inputs, while the budget lasts.
+    fn put(&self, a: &[u32], b: &[u32], bits: [u64; 4], gate: &ApertureGate, kept: bool) {
+        let ids = a.len() + b.len();
+        if ids < Self::MIN_CELLS
             || self
                 .budget
                 .fetch_update(AtomicOrdering::Relaxed, AtomicOrdering::Relaxed, |left| {
@@ -877,7 +879,8 @@ impl CoreCuts {
             a: a.to_vec(),
             b: b.to_vec(),
             bits,
-            cut: cut.clone(),
+            gate: *gate,
+            kept,
         });
         let h = Self::hash(a, b, bits);
         let mut map = self.map.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
@@ -885,34 +888,109 @@ impl CoreCuts {
     }
 }
 
-/// [`core_cut`] through the cache (`None`: always cut); a new cut is stored when `store`.
+/// [`core_judgement`] through the cache (`None`: always judge); a new judgement is stored
+/// when `store`.
 #[allow(clippy::too_many_arguments)]
-fn core_cut_cached(
+fn core_judgement_cached(
     cx: &CellComplex,
     field: &CellField,
     cell_portals: &CellPortals,
     comps: &[Comp],
-    a: usize,
-    b: usize,
-    saddle: f64,
+    (a, b): (usize, usize),
+    (saddle, open): (f64, f64),
+    g: &ApertureGate,
     cache: Option<(&CoreCuts, bool)>,
-) -> Option<CoreCut> {
+) -> bool {
+    let judge = || core_judgement(cx, field, cell_portals, comps, (a, b), (saddle, open), g);
     let Some((cache, store)) = cache else {
-        return core_cut(cx, field, cell_portals, comps, a, b, saddle);
+        return judge();
     };
     let (ma, mb): (&[u32], &[u32]) = (&comps[a].members, &comps[b].members);
     if ma.len() + mb.len() < CoreCuts::MIN_CELLS {
-        return core_cut(cx, field, cell_portals, comps, a, b, saddle);
+        return judge();
     }
-    let bits = [saddle.to_bits(), comps[a].peak.to_bits(), comps[b].peak.to_bits()];
-    if let Some(cut) = cache.get(ma, mb, bits) {
-        return cut;
+    let bits = [
+        saddle.to_bits(),
+        open.to_bits(),
+        comps[a].peak.to_bits(),
+        comps[b].peak.to_bits(),
+    ];
+    if let Some(kept) = cache.get(ma, mb, bits, g) {
+        return kept;
     }
-    let cut = core_cut(cx, field, cell_portals, comps, a, b, saddle);
+    let kept = judge();
     if store {
-        cache.put(ma, mb, bits, &cut);
+        cache.put(ma, mb, bits, g, kept);
     }
-    cut
+    kept
+}
+
+/// The gate's judgement on the least-area cut between the cores of the pair `(a, b)`
+/// (`saddle`, and `open` the opening the pair's sections were compared with): whether it
+/// keeps the pair apart. Only a cut narrower than `open` can: its two sides are then
+/// judged as the gate judges two components (each holds its peak's ball twice over, and
+/// each section is at least `ratio` times the cut's opening).
+fn core_judgement(
+    cx: &CellComplex,
+    field: &CellField,
+    cell_portals: &CellPortals,
+    comps: &[Comp],
+    (a, b): (usize, usize),
+    (saddle, open): (f64, f64),
+    g: &ApertureGate,
+) -> bool {
+    let Some((portals, cl, sides)) = core_cut(cx, field, cell_portals, comps, a, b, saddle) else {
+        return false;
+    };
+    let narrower = if g.vector_opening { cl.opening() } else { cl.area };
+    // (Not narrower, or an opening that is NaN: the cut keeps nothing apart.)
+    if narrower.partial_cmp(&open) != Some(Ordering::Less) {
+        return false;
+    }
+    // The two sides of the cut judged as the gate judges two
+    // components: each holds its peak's ball twice over, and each
+    // section is at least `ratio` times the cut's opening.
+    let f2 = cl.frame(cx);
+    let target = g.ratio * narrower;
+    // The sides have no cached hulls and are judged once: their
+    // projected section is the 2D hull of their projected vertices
+    // and their extent along the normal their vertices' (building a
+    // 3D hull for each was a fifth of the decimation on a real level).
+    let volume = |cells: &[u32]| -> f64 { cells.iter().map(|&c| cx.cell_volume(CellId(c))).sum() };
+    let mut k2 = g.holds_ball(comps[a].peak, volume(&sides[0])) && g.holds_ball(comps[b].peak, volume(&sides[1]));
+    let mut q = (0.0, 0.0);
+    if k2 {
+        q = (projected(cx, &sides[0], &f2), projected(cx, &sides[1], &f2));
+        k2 = q.0.min(q.1) >= target;
+    }
+    // The sides' parallel cuts, each summed only until it decides (a
+    // second target resumes the sums).
+    let mut memos: [Option<(SliceMemo, (f64, f64))>; 2] = [None, None];
+    let mut cut_side = |i: usize, target: f64| {
+        let (memo, extent) = memos[i].get_or_insert_with(|| fresh_memo(cx, &sides[i], &f2));
+        memo.extend(cx, &sides[i], &f2, *extent, g.slices, target)
+    };
+    let mut sliced = |target: f64| {
+        let s0 = cut_side(0, target);
+        let s1 = if s0 >= target {
+            cut_side(1, target)
+        } else {
+            f64::INFINITY
+        };
+        (s0, s1)
+    };
+    if k2 && g.slices > 0 {
+        q = sliced(target);
+        k2 = q.0.min(q.1) >= target;
+    }
+    if k2 && g.vector_opening && g.shadow_opening {
+        let t2 = g.ratio * shadow(cx, &portals, &f2);
+        if g.slices > 0 && q.0.min(q.1) < t2 {
+            q = sliced(t2);
+        }
+        k2 = q.0.min(q.1) >= t2;
+    }
+    k2
 }
 
 /// An upper bound of [`CellField::refined_passage`] of portal `k`: the lower of its two
@@ -2987,67 +3065,18 @@ fn merge<I: Ids>(
                 // The interface of two components that are still growing may lie away from
                 // the opening between them (one grew through a door into the corridor
                 // beyond): judged again on the least-area cut between their cores.
-                if let Some((portals, cl, sides)) = core_cut_cached(
+                kept = core_judgement_cached(
                     cx,
                     field,
                     cell_portals,
                     &comps,
-                    a,
-                    b,
-                    l.saddle,
+                    (a, b),
+                    (l.saddle, opening(&g)),
+                    &g,
                     // Stored while below the threshold: the part of a run to the end
                     // that the constrained pass repeats.
                     dedup.then_some((&refined_cache.core_cuts, stop_r.is_some_and(|r| w < r))),
-                ) {
-                    let narrower = if g.vector_opening { cl.opening() } else { cl.area };
-                    if narrower < opening(&g) {
-                        // The two sides of the cut judged as the gate judges two
-                        // components: each holds its peak's ball twice over, and each
-                        // section is at least `ratio` times the cut's opening.
-                        let f2 = cl.frame(cx);
-                        let target = g.ratio * narrower;
-                        // The sides have no cached hulls and are judged once: their
-                        // projected section is the 2D hull of their projected vertices
-                        // and their extent along the normal their vertices' (building a
-                        // 3D hull for each was a fifth of the decimation on a real level).
-                        let volume = |cells: &[u32]| -> f64 { cells.iter().map(|&c| cx.cell_volume(CellId(c))).sum() };
-                        let mut k2 = g.holds_ball(comps[a].peak, volume(&sides[0]))
-                            && g.holds_ball(comps[b].peak, volume(&sides[1]));
-                        let mut q = (0.0, 0.0);
-                        if k2 {
-                            q = (projected(cx, &sides[0], &f2), projected(cx, &sides[1], &f2));
-                            k2 = q.0.min(q.1) >= target;
-                        }
-                        // The sides' parallel cuts, each summed only until it decides (a
-                        // second target resumes the sums).
-                        let mut memos: [Option<(SliceMemo, (f64, f64))>; 2] = [None, None];
-                        let mut cut_side = |i: usize, target: f64| {
-                            let (memo, extent) = memos[i].get_or_insert_with(|| fresh_memo(cx, &sides[i], &f2));
-                            memo.extend(cx, &sides[i], &f2, *extent, g.slices, target)
-                        };
-                        let mut sliced = |target: f64| {
-                            let s0 = cut_side(0, target);
-                            let s1 = if s0 >= target {
-                                cut_side(1, target)
-                            } else {
-                                f64::INFINITY
-                            };
-                            (s0, s1)
-                        };
-                        if k2 && g.slices > 0 {
-                            q = sliced(target);
-                            k2 = q.0.min(q.1) >= target;
-                        }
-                        if k2 && g.vector_opening && g.shadow_opening {
-                            let t2 = g.ratio * shadow(cx, &portals, &f2);
-                            if g.slices > 0 && q.0.min(q.1) < t2 {
-                                q = sliced(t2);
-                            }
-                            k2 = q.0.min(q.1) >= t2;
-                        }
-                        kept = k2;
-                    }
-                }
+                );
             }
             if let Some(t) = trace.as_deref_mut() {
                 t.push(TraceStep {
@@ -4281,7 +4310,8 @@ mod tests {
     }
 
     #[test]
-    fn stored_core_cuts_are_taken_only_for_equal_inputs_and_equal_new_ones() {
+    fn stored_core_judgements_are_taken_only_for_equal_inputs_and_equal_new_ones() {
+        // The two rooms of the door test, the first grown a metre into the second.
         let (soup, _) = crate::generate::scenes::room_grid(2, 1, 8);
         let m = crate::model::from_soup("rooms 2x1", soup.vertices, soup.polygons).unwrap();
         let cx = crate::pipeline::complex_of(&m).unwrap();
@@ -4298,43 +4328,67 @@ mod tests {
         let (near, far): (Vec<u32>, Vec<u32>) = active.iter().partition(|&&c| x(c) < 5.5);
         assert!(near.len() + far.len() >= CoreCuts::MIN_CELLS);
         let cell_portals = CellPortals::new(&cx, |_| true);
+        let g = crate::decimate::HeuristicKind::Aperture
+            .heuristic()
+            .aperture_gate()
+            .expect("aperture has a gate");
         let cache = CoreCuts::new(cx.cells.len());
-        let bits = |c: &Option<CoreCut>| {
-            c.as_ref().map(|(p, l, s)| {
-                (
-                    p.clone(),
-                    [l.saddle, l.area, l.av[0], l.av[1], l.av[2], l.largest_area].map(f64::to_bits),
-                    s.clone(),
-                )
-            })
-        };
+        let hits = || cache.hits.load(AtomicOrdering::Relaxed);
         let comps = [comp(near.clone()), comp(far.clone())];
-        let fresh = core_cut(&cx, &field, &cell_portals, &comps, 0, 1, 0.5);
-        assert!(fresh.is_some());
-        // Not stored when told not to; stored, then taken, when told to.
-        let cut = |comps: &[Comp], saddle: f64, store: bool| {
-            core_cut_cached(&cx, &field, &cell_portals, comps, 0, 1, saddle, Some((&cache, store)))
+        let fresh = |comps: &[Comp], saddle: f64, open: f64| {
+            core_judgement(&cx, &field, &cell_portals, comps, (0, 1), (saddle, open), &g)
         };
-        assert_eq!(bits(&cut(&comps, 0.5, false)), bits(&fresh));
-        assert_eq!(cache.hits.load(AtomicOrdering::Relaxed), 0);
-        assert_eq!(bits(&cut(&comps, 0.5, true)), bits(&fresh));
-        assert_eq!(cache.hits.load(AtomicOrdering::Relaxed), 0);
-        assert_eq!(bits(&cut(&comps, 0.5, true)), bits(&fresh));
-        assert_eq!(cache.hits.load(AtomicOrdering::Relaxed), 1);
-        // Another saddle, or the same members in another order (the flow network's node
-        // numbers), is another input: cut anew, with that input's bits.
-        let other = core_cut(&cx, &field, &cell_portals, &comps, 0, 1, 0.4);
-        assert_eq!(bits(&cut(&comps, 0.4, true)), bits(&other));
+        let cached = |comps: &[Comp], saddle: f64, open: f64, store: bool| {
+            core_judgement_cached(
+                &cx,
+                &field,
+                &cell_portals,
+                comps,
+                (0, 1),
+                (saddle, open),
+                &g,
+                Some((&cache, store)),
+            )
+        };
+        // The door (opening 2) is narrower than the second room's section (12): kept; not
+        // narrower than an opening of 1: not kept by the cut.
+        assert!(fresh(&comps, 0.5, 12.0));
+        assert!(!fresh(&comps, 0.5, 1.0));
+        // Not stored when told not to; stored, then taken, when told to.
+        assert!(cached(&comps, 0.5, 12.0, false));
+        assert_eq!(hits(), 0);
+        assert!(cached(&comps, 0.5, 12.0, true));
+        assert_eq!(hits(), 0);
+        assert!(cached(&comps, 0.5, 12.0, true));
+        assert_eq!(hits(), 1);
+        // Another opening, saddle or member order (the flow network's node numbers) is
+        // another input: judged anew.
+        assert!(!cached(&comps, 0.5, 1.0, true));
+        assert_eq!(cached(&comps, 0.4, 12.0, true), fresh(&comps, 0.4, 12.0));
         let mut rev = near;
         rev.reverse();
         let turned = [comp(rev), comp(far)];
-        let want = core_cut(&cx, &field, &cell_portals, &turned, 0, 1, 0.5);
-        assert_eq!(bits(&cut(&turned, 0.5, true)), bits(&want));
-        assert_eq!(cache.hits.load(AtomicOrdering::Relaxed), 1);
+        assert_eq!(cached(&turned, 0.5, 12.0, true), fresh(&turned, 0.5, 12.0));
+        assert_eq!(hits(), 1);
+        // As is another gate.
+        let other = ApertureGate { ratio: 100.0, ..g };
+        assert!(
+            core_judgement_cached(
+                &cx,
+                &field,
+                &cell_portals,
+                &comps,
+                (0, 1),
+                (0.5, 12.0),
+                &other,
+                Some((&cache, true))
+            ) == core_judgement(&cx, &field, &cell_portals, &comps, (0, 1), (0.5, 12.0), &other)
+        );
+        assert_eq!(hits(), 1);
         // An exhausted budget stores nothing more.
         let small = CoreCuts::new(0);
-        small.put(&comps[0].members, &comps[1].members, [0; 3], &fresh);
-        assert!(small.get(&comps[0].members, &comps[1].members, [0; 3]).is_none());
+        small.put(&comps[0].members, &comps[1].members, [0; 4], &g, true);
+        assert!(small.get(&comps[0].members, &comps[1].members, [0; 4], &g).is_none());
     }
 
     #[test]
