@@ -4309,23 +4309,37 @@ mod tests {
         assert!(compared > 20, "{compared}");
     }
 
-    #[test]
-    fn stored_core_judgements_are_taken_only_for_equal_inputs_and_equal_new_ones() {
-        // The two rooms of the door test, the first grown a metre into the second.
+    /// Two 4 x 4 x 3 rooms (x in [0, 4] and [4.5, 8.5]) joined by a door 1 wide and 2
+    /// high through a wall 0.5 thick: the model, its complex and field, and its active
+    /// cells split at x = 5.5 (the first room, the door and the first metre of the second
+    /// room; the rest of the second room).
+    fn rooms_through_a_door() -> (crate::model::Model, CellComplex, CellField, Vec<u32>, Vec<u32>) {
         let (soup, _) = crate::generate::scenes::room_grid(2, 1, 8);
         let m = crate::model::from_soup("rooms 2x1", soup.vertices, soup.polygons).unwrap();
         let cx = crate::pipeline::complex_of(&m).unwrap();
         let field = CellField::new(&cx);
         let x = |c: u32| m.to_user(cx.cells[c as usize].centroid())[0];
         let active: Vec<u32> = cx.active_cells().map(|(id, _)| id.0).collect();
-        let comp = |members: Vec<u32>| Comp {
+        let (near, far): (Vec<u32>, Vec<u32>) = active.iter().partition(|&&c| x(c) < 5.5);
+        (m, cx, field, near, far)
+    }
+
+    /// A component of `members` as the merge starts one (its peak the highest member's).
+    fn comp_of(cx: &CellComplex, field: &CellField, members: Vec<u32>) -> Comp {
+        Comp {
             peak: members.iter().map(|&c| field.value[c as usize]).fold(0.0, f64::max),
             volume: members.iter().map(|&c| cx.cell_volume(CellId(c))).sum(),
             pieces: members.len() as u32,
             members: members.into(),
             ..Comp::default()
-        };
-        let (near, far): (Vec<u32>, Vec<u32>) = active.iter().partition(|&&c| x(c) < 5.5);
+        }
+    }
+
+    #[test]
+    fn stored_core_judgements_are_taken_only_for_equal_inputs_and_equal_new_ones() {
+        // The two rooms of the door test, the first grown a metre into the second.
+        let (_, cx, field, near, far) = rooms_through_a_door();
+        let comp = |members: Vec<u32>| comp_of(&cx, &field, members);
         assert!(near.len() + far.len() >= CoreCuts::MIN_CELLS);
         let cell_portals = CellPortals::new(&cx, |_| true);
         let g = crate::decimate::HeuristicKind::Aperture
@@ -4397,20 +4411,9 @@ mod tests {
         // high through a wall 0.5 thick. Component `a` is the first room, the door and the
         // first metre of the second room; `b` the rest of the second room. Their interface
         // is the second room's section (12); the least cut between their cores is the door.
-        let (soup, _) = crate::generate::scenes::room_grid(2, 1, 8);
-        let m = crate::model::from_soup("rooms 2x1", soup.vertices, soup.polygons).unwrap();
-        let cx = crate::pipeline::complex_of(&m).unwrap();
-        let field = CellField::new(&cx);
+        let (m, cx, field, near, far) = rooms_through_a_door();
         let x = |c: u32| m.to_user(cx.cells[c as usize].centroid())[0];
-        let active: Vec<u32> = cx.active_cells().map(|(id, _)| id.0).collect();
-        let comp = |members: Vec<u32>| Comp {
-            peak: members.iter().map(|&c| field.value[c as usize]).fold(0.0, f64::max),
-            volume: members.iter().map(|&c| cx.cell_volume(CellId(c))).sum(),
-            pieces: members.len() as u32,
-            members: members.into(),
-            ..Comp::default()
-        };
-        let (near, far): (Vec<u32>, Vec<u32>) = active.iter().partition(|&&c| x(c) < 5.5);
+        let comp = |members: Vec<u32>| comp_of(&cx, &field, members);
         let comps = [comp(near), comp(far)];
         let cell_portals = CellPortals::new(&cx, |_| true);
         // The pass through the door: half its width.
