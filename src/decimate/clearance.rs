@@ -769,7 +769,7 @@ struct RefinedCache {
     value: Vec<AtomicU64>,
     /// Values taken from the cache (for tests).
     hits: AtomicUsize,
-    /// Core cuts already found ([`CoreCuts`]).
+    /// Core-cut judgements already made ([`CoreCuts`]).
     core_cuts: CoreCuts,
 }
 
@@ -806,11 +806,13 @@ type CoreCut = (Vec<u32>, Link, [Vec<u32>; 2]);
 /// threshold, and by groups merged again up to another group's stop (on a real level,
 /// `oa_thor`, 8,787 of 110,293 core cuts, walking 5.1M of the 11.1M cells the cuts walk).
 /// An entry keeps its inputs and is used only when they are equal (the hash only finds
-/// the bucket), so a stored judgement is a new one's. Pairs of fewer than
+/// the bucket), so a stored judgement is a new one's. (The complex, the field and the
+/// cells' portal lists are the same for every merge of a decimation: each merge lists
+/// every portal between two active cells, in portal order.) Pairs of fewer than
 /// [`CoreCuts::MIN_CELLS`] cells are judged again (they are cheap), and storing stops once
 /// the entries hold `budget` member ids.
 struct CoreCuts {
-    map: std::sync::Mutex<HashMap<u64, Vec<std::sync::Arc<CoreEntry>>, FxBuild>>,
+    map: std::sync::Mutex<HashMap<u64, Vec<CoreEntry>, FxBuild>>,
     /// Member ids the entries may still hold.
     budget: AtomicUsize,
     /// Judgements taken from the cache (for tests).
@@ -875,13 +877,13 @@ impl CoreCuts {
         {
             return;
         }
-        let e = std::sync::Arc::new(CoreEntry {
+        let e = CoreEntry {
             a: a.to_vec(),
             b: b.to_vec(),
             bits,
             gate: *gate,
             kept,
-        });
+        };
         let h = Self::hash(a, b, bits);
         let mut map = self.map.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
         map.entry(h).or_default().push(e);
