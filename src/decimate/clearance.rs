@@ -890,20 +890,26 @@ impl CoreCuts {
     }
 }
 
+/// What a core-cut judgement asks: whether the least-area cut between the cores of the
+/// pair `(a, b)` of `comps` (its `saddle`, and `open` the opening its sections were
+/// compared with) keeps the pair apart under `gate`.
+#[derive(Clone, Copy)]
+struct CoreQuestion<'a> {
+    cx: &'a CellComplex,
+    field: &'a CellField,
+    cell_portals: &'a CellPortals,
+    comps: &'a [Comp],
+    pair: (usize, usize),
+    saddle: f64,
+    open: f64,
+    gate: &'a ApertureGate,
+}
+
 /// [`core_judgement`] through the cache (`None`: always judge); a new judgement is stored
 /// when `store`.
-#[allow(clippy::too_many_arguments)]
-fn core_judgement_cached(
-    cx: &CellComplex,
-    field: &CellField,
-    cell_portals: &CellPortals,
-    comps: &[Comp],
-    (a, b): (usize, usize),
-    (saddle, open): (f64, f64),
-    g: &ApertureGate,
-    cache: Option<(&CoreCuts, bool)>,
-) -> bool {
-    let judge = || core_judgement(cx, field, cell_portals, comps, (a, b), (saddle, open), g);
+fn core_judgement_cached(q: &CoreQuestion<'_>, cache: Option<(&CoreCuts, bool)>) -> bool {
+    let (comps, (a, b)) = (q.comps, q.pair);
+    let judge = || core_judgement(q);
     let Some((cache, store)) = cache else {
         return judge();
     };
@@ -912,35 +918,36 @@ fn core_judgement_cached(
         return judge();
     }
     let bits = [
-        saddle.to_bits(),
-        open.to_bits(),
+        q.saddle.to_bits(),
+        q.open.to_bits(),
         comps[a].peak.to_bits(),
         comps[b].peak.to_bits(),
     ];
-    if let Some(kept) = cache.get(ma, mb, bits, g) {
+    if let Some(kept) = cache.get(ma, mb, bits, q.gate) {
         return kept;
     }
     let kept = judge();
     if store {
-        cache.put(ma, mb, bits, g, kept);
+        cache.put(ma, mb, bits, q.gate, kept);
     }
     kept
 }
 
-/// The gate's judgement on the least-area cut between the cores of the pair `(a, b)`
-/// (`saddle`, and `open` the opening the pair's sections were compared with): whether it
-/// keeps the pair apart. Only a cut narrower than `open` can: its two sides are then
-/// judged as the gate judges two components (each holds its peak's ball twice over, and
-/// each section is at least `ratio` times the cut's opening).
-fn core_judgement(
-    cx: &CellComplex,
-    field: &CellField,
-    cell_portals: &CellPortals,
-    comps: &[Comp],
-    (a, b): (usize, usize),
-    (saddle, open): (f64, f64),
-    g: &ApertureGate,
-) -> bool {
+/// The gate's judgement on the least-area cut between the cores of the pair (see
+/// [`CoreQuestion`]): whether it keeps the pair apart. Only a cut narrower than `open`
+/// can: its two sides are then judged as the gate judges two components (each holds its
+/// peak's ball twice over, and each section is at least `ratio` times the cut's opening).
+fn core_judgement(q: &CoreQuestion<'_>) -> bool {
+    let CoreQuestion {
+        cx,
+        field,
+        cell_portals,
+        comps,
+        pair: (a, b),
+        saddle,
+        open,
+        gate: g,
+    } = *q;
     let Some((portals, cl, sides)) = core_cut(cx, field, cell_portals, comps, a, b, saddle) else {
         return false;
     };
@@ -3067,14 +3074,18 @@ fn merge<I: Ids>(
                 // The interface of two components that are still growing may lie away from
                 // the opening between them (one grew through a door into the corridor
                 // beyond): judged again on the least-area cut between their cores.
-                kept = core_judgement_cached(
+                let q = CoreQuestion {
                     cx,
                     field,
                     cell_portals,
-                    &comps,
-                    (a, b),
-                    (l.saddle, opening(&g)),
-                    &g,
+                    comps: &comps,
+                    pair: (a, b),
+                    saddle: l.saddle,
+                    open: opening(&g),
+                    gate: &g,
+                };
+                kept = core_judgement_cached(
+                    &q,
                     // Stored while below the threshold: the part of a run to the end
                     // that the constrained pass repeats.
                     dedup.then_some((&refined_cache.core_cuts, stop_r.is_some_and(|r| w < r))),
@@ -4351,20 +4362,32 @@ mod tests {
         let cache = CoreCuts::new(cx.cells.len());
         let hits = || cache.hits.load(AtomicOrdering::Relaxed);
         let comps = [comp(near.clone()), comp(far.clone())];
+        let base = CoreQuestion {
+            cx: &cx,
+            field: &field,
+            cell_portals: &cell_portals,
+            comps: &comps,
+            pair: (0, 1),
+            saddle: 0.5,
+            open: 12.0,
+            gate: &g,
+        };
         let fresh = |comps: &[Comp], saddle: f64, open: f64| {
-            core_judgement(&cx, &field, &cell_portals, comps, (0, 1), (saddle, open), &g)
+            core_judgement(&CoreQuestion {
+                comps,
+                saddle,
+                open,
+                ..base
+            })
         };
         let cached = |comps: &[Comp], saddle: f64, open: f64, store: bool| {
-            core_judgement_cached(
-                &cx,
-                &field,
-                &cell_portals,
+            let q = CoreQuestion {
                 comps,
-                (0, 1),
-                (saddle, open),
-                &g,
-                Some((&cache, store)),
-            )
+                saddle,
+                open,
+                ..base
+            };
+            core_judgement_cached(&q, Some((&cache, store)))
         };
         // The door (opening 2) is narrower than the second room's section (12): kept; not
         // narrower than an opening of 1: not kept by the cut.
@@ -4388,18 +4411,8 @@ mod tests {
         assert_eq!(hits(), 1);
         // As is another gate.
         let other = ApertureGate { ratio: 100.0, ..g };
-        assert!(
-            core_judgement_cached(
-                &cx,
-                &field,
-                &cell_portals,
-                &comps,
-                (0, 1),
-                (0.5, 12.0),
-                &other,
-                Some((&cache, true))
-            ) == core_judgement(&cx, &field, &cell_portals, &comps, (0, 1), (0.5, 12.0), &other)
-        );
+        let q = CoreQuestion { gate: &other, ..base };
+        assert_eq!(core_judgement_cached(&q, Some((&cache, true))), core_judgement(&q));
         assert_eq!(hits(), 1);
         // An exhausted budget stores nothing more.
         let small = CoreCuts::new(0);
